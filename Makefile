@@ -1,0 +1,33 @@
+# The README's two commands: `make demo` and `make test`. Both install the Debian packages
+# they need, configure and build (Release, Ninja, ccache) and then run.
+JOBS ?= $(shell nproc)
+
+.PHONY: demo test deps build test-asan bench format clean
+
+deps:
+	bash scripts/install-deps.sh
+
+build: deps
+	cmake --preset release
+	cmake --build --preset release -j $(JOBS)
+
+demo: build
+	bash scripts/demo.sh
+
+test: build
+	ctest --preset release -j 2
+
+# Unit tests under AddressSanitizer + UndefinedBehaviorSanitizer (CI runs this too).
+test-asan: deps
+	cmake --preset asan
+	cmake --build --preset asan -j $(JOBS)
+	ctest --preset asan -j 2
+
+bench: build
+	bash bench/ingest_bench.sh
+
+format:
+	git ls-files '*.cc' '*.h' | xargs clang-format -i
+
+clean:
+	rm -rf build

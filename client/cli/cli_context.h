@@ -1,0 +1,35 @@
+// What every semmap subcommand gets: the parsed options shared by all commands and helpers to
+// report errors the same way everywhere.
+#pragma once
+
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "client/lib/map_client.h"
+#include "common/arg_parser.h"
+#include "common/status.h"
+
+namespace semmap::cli {
+
+constexpr int kExitOk = 0;
+constexpr int kExitError = 1;  // the server or the data said no
+constexpr int kExitUsage = 2;  // the command line was wrong
+
+struct CliContext {
+  std::string server = "127.0.0.1:50051";
+  bool json = false;
+};
+
+// Adds --server and --json so they work before or after the subcommand.
+void AddCommonFlags(ArgParser& parser);
+void ApplyCommonFlags(const ArgParser& parser, CliContext* context);
+
+// Prints "semmap: CODE: message" to stderr and returns kExitError.
+int ReportError(const Status& status);
+int ReportUsage(const std::string& message, const std::string& usage);
+void PrintJson(const nlohmann::json& value);
+
+MapClient MakeClient(const CliContext& context);
+
+}  // namespace semmap::cli

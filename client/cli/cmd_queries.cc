@@ -1,0 +1,195 @@
+// health, maps, sessions, trajectory, export.
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+
+#include "client/cli/commands.h"
+#include "client/cli/json_views.h"
+#include "common/pose.h"
+#include "common/time_util.h"
+
+namespace semmap::cli {
+namespace {
+
+// Parses argv with the common flags plus the command's own; handles --help and usage errors.
+// Returns -1 to continue, otherwise the exit code.
+int ParseCommand(ArgParser& parser, CliContext* context, int argc, const char* const* argv,
+                 const std::string& usage, size_t min_positional, size_t max_positional) {
+  AddCommonFlags(parser);
+  const std::string full_usage = usage + "\noptions:\n" + parser.Usage();
+  Status parsed = parser.Parse(argc, argv, 0);
+  if (!parsed.ok()) return ReportUsage(parsed.message(), full_usage);
+  if (parser.Has("help")) {
+    std::cout << full_usage;
+    return kExitOk;
+  }
+  const size_t n = parser.positional().size();
+  if (n < min_positional || n > max_positional) {
+    return ReportUsage("wrong number of arguments", full_usage);
+  }
+  ApplyCommonFlags(parser, context);
+  return -1;
+}
+
+}  // namespace
+
+int RunHealth(CliContext context, int argc, const char* const* argv) {
+  ArgParser parser;
+  if (int rc = ParseCommand(parser, &context, argc, argv,
+                            "usage: semmap health\n  Asks semmapd whether it is serving.\n", 0, 0);
+      rc >= 0) {
+    return rc;
+  }
+  MapClient client = MakeClient(context);
+  StatusOr<std::string> health = client.Health();
+  if (!health.ok()) return ReportError(health.status());
+  if (context.json) {
+    PrintJson({{"server", context.server}, {"status", *health}});
+  } else {
+    std::cout << context.server << ": " << *health << std::endl;
+  }
+  return *health == "SERVING" ? kExitOk : kExitError;
+}
+
+int RunMaps(CliContext context, int argc, const char* const* argv) {
+  ArgParser parser;
+  if (int rc =
+          ParseCommand(parser, &context, argc, argv, "usage: semmap maps\n  Lists maps.\n", 0, 0);
+      rc >= 0) {
+    return rc;
+  }
+  MapClient client = MakeClient(context);
+  StatusOr<std::vector<MapInfo>> maps = client.ListMaps();
+  if (!maps.ok()) return ReportError(maps.status());
+  if (context.json) {
+    nlohmann::json out = {{"maps", nlohmann::json::array()}};
+    for (const MapInfo& m : *maps) out["maps"].push_back(ToJson(m));
+    PrintJson(out);
+    return kExitOk;
+  }
+  if (maps->empty()) std::cout << "no maps\n";
+  for (const MapInfo& m : *maps) {
+    std::cout << std::left << std::setw(24) << m.name << " sessions " << std::setw(4)
+              << m.session_count << " keyframes " << std::setw(6) << m.keyframe_count << " created "
+              << FormatUnixTime(m.created_unix_ns) << "\n";
+  }
+  return kExitOk;
+}
+
+int RunSessions(CliContext context, int argc, const char* const* argv) {
+  ArgParser parser;
+  parser.AddFlag("map", "M", "only this map's sessions");
+  if (int rc = ParseCommand(parser, &context, argc, argv,
+                            "usage: semmap sessions [--map M]\n  Lists mapping sessions.\n", 0, 0);
+      rc >= 0) {
+    return rc;
+  }
+  MapClient client = MakeClient(context);
+  StatusOr<std::vector<SessionInfo>> sessions = client.ListSessions(parser.Get("map"));
+  if (!sessions.ok()) return ReportError(sessions.status());
+  if (context.json) {
+    nlohmann::json out = {{"sessions", nlohmann::json::array()}};
+    for (const SessionInfo& s : *sessions) out["sessions"].push_back(ToJson(s));
+    PrintJson(out);
+    return kExitOk;
+  }
+  if (sessions->empty()) std::cout << "no sessions\n";
+  for (const SessionInfo& s : *sessions) {
+    std::cout << std::left << std::setw(16) << s.map_name << " " << std::setw(24) << s.name << " "
+              << std::setw(12) << SessionModeName(s.mode) << " frames " << std::setw(6)
+              << s.frame_count << " keyframes " << std::setw(5) << s.keyframe_count
+              << (s.ended_unix_ns == 0 ? " (open or interrupted)" : "") << "\n";
+  }
+  return kExitOk;
+}
+
+int RunTrajectory(CliContext context, int argc, const char* const* argv) {
+  ArgParser parser;
+  parser.AddFlag("map", "M", "map name (required)");
+  parser.AddFlag("session", "S", "session name (required)");
+  parser.AddFlag("o", "FILE", "write TUM format to FILE instead of stdout");
+  parser.AddSwitch("keyframes", "only keyframes");
+  if (int rc = ParseCommand(parser, &context, argc, argv,
+                            "usage: semmap trajectory --map M --session S [-o FILE]\n"
+                            "  Prints a session's poses (T_world_camera) in TUM format.\n",
+                            0, 0);
+      rc >= 0) {
+    return rc;
+  }
+  if (!parser.Has("map") || !parser.Has("session")) {
+    return ReportUsage("trajectory needs --map and --session", "see semmap trajectory --help\n");
+  }
+  MapClient client = MakeClient(context);
+  StatusOr<std::vector<TrajectoryPose>> poses =
+      client.GetTrajectory(parser.Get("map"), parser.Get("session"), parser.Has("keyframes"));
+  if (!poses.ok()) return ReportError(poses.status());
+  if (context.json && !parser.Has("o")) {
+    nlohmann::json out = {{"map", parser.Get("map")},
+                          {"session", parser.Get("session")},
+                          {"poses", nlohmann::json::array()}};
+    for (const TrajectoryPose& p : *poses) out["poses"].push_back(ToJson(p));
+    PrintJson(out);
+    return kExitOk;
+  }
+  std::ofstream file;
+  if (parser.Has("o")) {
+    file.open(parser.Get("o"));
+    if (!file) return ReportError(UnavailableError("cannot write " + parser.Get("o")));
+  }
+  std::ostream& out = parser.Has("o") ? file : std::cout;
+  out << "# timestamp tx ty tz qx qy qz qw\n" << std::fixed << std::setprecision(9);
+  for (const TrajectoryPose& p : *poses) {
+    const PoseTq tq = ToPoseTq(p.T_world_camera);
+    out << FormatStampSeconds(p.stamp_ns) << " " << tq.t.x() << " " << tq.t.y() << " " << tq.t.z()
+        << " " << tq.q.x() << " " << tq.q.y() << " " << tq.q.z() << " " << tq.q.w() << "\n";
+  }
+  if (parser.Has("o")) {
+    file.close();
+    if (!file) return ReportError(UnavailableError("writing " + parser.Get("o") + " failed"));
+    if (context.json) {
+      PrintJson({{"file", parser.Get("o")}, {"poses", poses->size()}});
+    } else {
+      std::cerr << "wrote " << poses->size() << " poses to " << parser.Get("o") << "\n";
+    }
+  }
+  return kExitOk;
+}
+
+int RunExport(CliContext context, int argc, const char* const* argv) {
+  ArgParser parser;
+  parser.AddFlag("map", "M", "map name (required)");
+  parser.AddFlag("format", "F", "tum (one session's trajectory) or json (map summary)");
+  parser.AddFlag("session", "S", "only this session");
+  parser.AddFlag("o", "FILE", "output file (required)");
+  if (int rc = ParseCommand(parser, &context, argc, argv,
+                            "usage: semmap export --map M --format F -o FILE [--session S]\n"
+                            "  Downloads a map product; its SHA-256 is checked.\n",
+                            0, 0);
+      rc >= 0) {
+    return rc;
+  }
+  if (!parser.Has("map") || !parser.Has("format") || !parser.Has("o")) {
+    return ReportUsage("export needs --map, --format and -o", "see semmap export --help\n");
+  }
+  MapClient client = MakeClient(context);
+  StatusOr<ExportResult> result =
+      client.ExportMap({parser.Get("map"), parser.Get("format"), parser.Get("session")});
+  if (!result.ok()) return ReportError(result.status());
+  const std::string path = parser.Get("o");
+  std::ofstream file(path, std::ios::binary);
+  file.write(result->bytes.data(), static_cast<std::streamsize>(result->bytes.size()));
+  file.close();
+  if (!file) return ReportError(UnavailableError("writing " + path + " failed"));
+  if (context.json) {
+    PrintJson({{"file", path},
+               {"format", result->format},
+               {"bytes", result->bytes.size()},
+               {"sha256", result->sha256_hex}});
+  } else {
+    std::cout << "wrote " << result->bytes.size() << " bytes (" << result->format << ", sha256 "
+              << result->sha256_hex << ") to " << path << "\n";
+  }
+  return kExitOk;
+}
+
+}  // namespace semmap::cli

@@ -1,0 +1,55 @@
+#include "client/cli/json_views.h"
+
+#include <ctime>
+
+#include "common/pose.h"
+#include "common/time_util.h"
+
+namespace semmap::cli {
+
+std::string FormatUnixTime(int64_t unix_ns) {
+  if (unix_ns == 0) return "";
+  const std::time_t seconds = static_cast<std::time_t>(unix_ns / 1'000'000'000);
+  std::tm utc{};
+  gmtime_r(&seconds, &utc);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return buf;
+}
+
+nlohmann::json ToJson(const MapInfo& map) {
+  return {{"name", map.name},
+          {"created", FormatUnixTime(map.created_unix_ns)},
+          {"sessions", map.session_count},
+          {"keyframes", map.keyframe_count}};
+}
+
+nlohmann::json ToJson(const SessionInfo& s) {
+  nlohmann::json out = {{"map", s.map_name},
+                        {"name", s.name},
+                        {"mode", SessionModeName(s.mode)},
+                        {"frames", s.frame_count},
+                        {"keyframes", s.keyframe_count},
+                        {"started", FormatUnixTime(s.started_unix_ns)},
+                        {"camera",
+                         {{"width", s.camera.width},
+                          {"height", s.camera.height},
+                          {"fx", s.camera.fx},
+                          {"fy", s.camera.fy},
+                          {"cx", s.camera.cx},
+                          {"cy", s.camera.cy}}}};
+  out["ended"] = s.ended_unix_ns == 0 ? nlohmann::json(nullptr)
+                                      : nlohmann::json(FormatUnixTime(s.ended_unix_ns));
+  return out;
+}
+
+nlohmann::json ToJson(const TrajectoryPose& p) {
+  const PoseTq tq = ToPoseTq(p.T_world_camera);
+  return {{"seq", p.seq},
+          {"stamp", FormatStampSeconds(p.stamp_ns)},
+          {"t", {tq.t.x(), tq.t.y(), tq.t.z()}},
+          {"q", {tq.q.x(), tq.q.y(), tq.q.z(), tq.q.w()}},
+          {"keyframe", p.is_keyframe}};
+}
+
+}  // namespace semmap::cli

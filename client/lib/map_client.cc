@@ -1,0 +1,134 @@
+#include "client/lib/map_client.h"
+
+#include <thread>
+
+#include "common/sha256.h"
+#include "grpc/health/v1/health.grpc.pb.h"
+#include "rpc/conversions.h"
+
+namespace semmap {
+
+MapClient::MapClient(const ClientOptions& options) : options_(options) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(options.max_message_mb << 20);
+  args.SetMaxSendMessageSize(options.max_message_mb << 20);
+  channel_ = grpc::CreateCustomChannel(options.server, grpc::InsecureChannelCredentials(), args);
+  stub_ = v1::MapService::NewStub(channel_);
+}
+
+void MapClient::SetDeadline(grpc::ClientContext* context) const {
+  context->set_deadline(std::chrono::system_clock::now() + options_.query_timeout);
+}
+
+StatusOr<std::string> MapClient::Health(std::chrono::milliseconds timeout) {
+  auto health = grpc::health::v1::Health::NewStub(channel_);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + timeout);
+  context.set_wait_for_ready(true);  // ride out a server that is still starting
+  grpc::health::v1::HealthCheckRequest request;
+  grpc::health::v1::HealthCheckResponse response;
+  const grpc::Status status = health->Check(&context, request, &response);
+  if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
+    return UnavailableError("no semmapd answered at " + options_.server);
+  }
+  if (!status.ok()) return FromGrpcStatus(status);
+  return grpc::health::v1::HealthCheckResponse::ServingStatus_Name(response.status());
+}
+
+Status MapClient::WaitUntilServing(std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  Status last = UnavailableError("no semmapd answered at " + options_.server);
+  while (std::chrono::steady_clock::now() < deadline) {
+    auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    StatusOr<std::string> health = Health(std::max(left, std::chrono::milliseconds(1)));
+    if (health.ok() && *health == "SERVING") return OkStatus();
+    if (!health.ok()) last = health.status();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return last;
+}
+
+StatusOr<std::vector<MapInfo>> MapClient::ListMaps() {
+  grpc::ClientContext context;
+  SetDeadline(&context);
+  v1::ListMapsResponse response;
+  SEMMAP_RETURN_IF_ERROR(FromGrpcStatus(stub_->ListMaps(&context, {}, &response)));
+  std::vector<MapInfo> maps;
+  for (const v1::MapInfo& m : response.maps()) maps.push_back(FromProto(m));
+  return maps;
+}
+
+StatusOr<std::vector<SessionInfo>> MapClient::ListSessions(const std::string& map) {
+  grpc::ClientContext context;
+  SetDeadline(&context);
+  v1::ListSessionsRequest request;
+  request.set_map(map);
+  v1::ListSessionsResponse response;
+  SEMMAP_RETURN_IF_ERROR(FromGrpcStatus(stub_->ListSessions(&context, request, &response)));
+  std::vector<SessionInfo> sessions;
+  for (const v1::SessionInfo& s : response.sessions()) sessions.push_back(FromProto(s));
+  return sessions;
+}
+
+StatusOr<std::vector<TrajectoryPose>> MapClient::GetTrajectory(const std::string& map,
+                                                               const std::string& session,
+                                                               bool keyframes_only) {
+  grpc::ClientContext context;
+  SetDeadline(&context);
+  v1::GetTrajectoryRequest request;
+  request.set_map(map);
+  request.set_session(session);
+  request.set_keyframes_only(keyframes_only);
+  auto reader = stub_->GetTrajectory(&context, request);
+  std::vector<TrajectoryPose> poses;
+  v1::GetTrajectoryResponse chunk;
+  while (reader->Read(&chunk)) {
+    for (const v1::TrajectoryPose& p : chunk.poses()) poses.push_back(FromProto(p));
+  }
+  SEMMAP_RETURN_IF_ERROR(FromGrpcStatus(reader->Finish()));
+  return poses;
+}
+
+StatusOr<ExportResult> MapClient::ExportMap(const ExportRequest& request) {
+  grpc::ClientContext context;
+  SetDeadline(&context);
+  v1::ExportMapRequest wire;
+  wire.set_map(request.map);
+  wire.set_format(request.format);
+  wire.set_session(request.session);
+  auto reader = stub_->ExportMap(&context, wire);
+  ExportResult result;
+  Sha256Hasher hasher;
+  std::optional<v1::ExportTrailer> trailer;
+  v1::ExportMapResponse message;
+  while (reader->Read(&message)) {
+    if (message.has_header()) {
+      result.format = message.header().format();
+      result.media_type = message.header().media_type();
+      result.bytes.reserve(message.header().total_bytes());
+    } else if (message.has_trailer()) {
+      trailer = message.trailer();
+    } else {
+      hasher.Update(message.chunk());
+      result.bytes += message.chunk();
+    }
+  }
+  SEMMAP_RETURN_IF_ERROR(FromGrpcStatus(reader->Finish()));
+  if (!trailer) return DataLossError("the export ended without its checksum trailer");
+  result.sha256_hex = ToHex(hasher.Finish());
+  if (result.sha256_hex != trailer->sha256() || result.bytes.size() != trailer->total_bytes()) {
+    return DataLossError(
+        "export checksum mismatch: received " + std::to_string(result.bytes.size()) +
+        " bytes with sha256 " + result.sha256_hex + ", server sent " +
+        std::to_string(trailer->total_bytes()) + " bytes with sha256 " + trailer->sha256());
+  }
+  return result;
+}
+
+StatusOr<std::unique_ptr<IngestStream>> MapClient::Ingest(const v1::IngestStart& start,
+                                                          IngestStream::AckCallback on_ack) {
+  return IngestStream::Open(stub_.get(), start, std::move(on_ack));
+}
+
+}  // namespace semmap

@@ -1,0 +1,54 @@
+// The semmap client library: the same MapQueryInterface the server implements in-process,
+// here over gRPC, plus health checks and streaming ingest.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include "client/lib/ingest_stream.h"
+#include "common/map_query.h"
+#include "semmap/v1/service.grpc.pb.h"
+
+namespace semmap {
+
+struct ClientOptions {
+  std::string server = "127.0.0.1:50051";
+  std::chrono::seconds query_timeout{30};
+  int max_message_mb = 64;
+};
+
+class MapClient final : public MapQueryInterface {
+ public:
+  explicit MapClient(const ClientOptions& options);
+
+  // "SERVING" / "NOT_SERVING"; UNAVAILABLE when nothing answers within `timeout`.
+  StatusOr<std::string> Health(std::chrono::milliseconds timeout = std::chrono::seconds(5));
+  // Waits until the server answers SERVING or the timeout passes.
+  Status WaitUntilServing(std::chrono::milliseconds timeout);
+
+  StatusOr<std::vector<MapInfo>> ListMaps() override;
+  StatusOr<std::vector<SessionInfo>> ListSessions(const std::string& map) override;
+  StatusOr<std::vector<TrajectoryPose>> GetTrajectory(const std::string& map,
+                                                      const std::string& session,
+                                                      bool keyframes_only) override;
+  // Reassembles the chunks and checks the trailer's SHA-256 (DATA_LOSS on mismatch).
+  StatusOr<ExportResult> ExportMap(const ExportRequest& request) override;
+
+  // Opens an ingest stream; fails with the server's status if the start is refused.
+  StatusOr<std::unique_ptr<IngestStream>> Ingest(const v1::IngestStart& start,
+                                                 IngestStream::AckCallback on_ack = nullptr);
+
+  v1::MapService::Stub& stub() { return *stub_; }
+
+ private:
+  void SetDeadline(grpc::ClientContext* context) const;
+
+  ClientOptions options_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::MapService::Stub> stub_;
+};
+
+}  // namespace semmap

@@ -1,0 +1,93 @@
+// Plain domain records exchanged between the pipeline, the store, the service and the client.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/camera.h"
+
+namespace semmap {
+
+enum class SessionMode : int { kRgbd = 1, kMono = 2, kKnownPoses = 3 };
+std::string_view SessionModeName(SessionMode mode);  // "rgbd", "mono", "known_poses"
+
+enum class LinkKind : int { kOdometry = 1, kLoop = 2 };
+
+struct MapInfo {
+  int64_t id = 0;
+  std::string name;
+  int64_t created_unix_ns = 0;
+  int64_t session_count = 0;
+  int64_t keyframe_count = 0;
+};
+
+struct SessionInfo {
+  int64_t id = 0;
+  int64_t map_id = 0;
+  std::string map_name;
+  std::string name;
+  SessionMode mode = SessionMode::kKnownPoses;
+  CameraCalibration camera;
+  double depth_scale = 0;  // raw depth units per metre the session's depth used (0: no depth)
+  int64_t started_unix_ns = 0;
+  int64_t ended_unix_ns = 0;  // 0 while the session is open (or ended by a crash)
+  int64_t frame_count = 0;
+  int64_t keyframe_count = 0;
+};
+
+// One pose of a session's trajectory: every frame has one, keyframes are flagged.
+struct TrajectoryPose {
+  int64_t seq = 0;
+  int64_t stamp_ns = 0;  // sensor time stamp in nanoseconds
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+  bool is_keyframe = false;
+};
+
+// An image as stored: encoded bytes ("png", "jpeg") so keyframes stay compact.
+struct EncodedImage {
+  std::string format;  // "png" or "jpeg"; empty when absent
+  std::string bytes;
+  bool empty() const { return bytes.empty(); }
+};
+
+struct KeyframeRecord {
+  int64_t id = 0;  // assigned by the store
+  int64_t session_id = 0;
+  int64_t seq = 0;
+  int64_t stamp_ns = 0;
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+  EncodedImage colour;
+  EncodedImage depth;      // 16-bit PNG; metres = value / depth_scale
+  double depth_scale = 0;  // 0 when the keyframe has no depth
+};
+
+// A constraint between two keyframes of one map (odometry or loop closure).
+struct LinkRecord {
+  int64_t id = 0;
+  int64_t map_id = 0;
+  int64_t from_keyframe_id = 0;
+  int64_t to_keyframe_id = 0;
+  // A pipeline may not know a keyframe's row id yet (its batch is still queued): then it leaves
+  // the id 0 and names the keyframe by (session_id, seq); the store resolves it on write.
+  int64_t from_session_id = 0;
+  int64_t from_seq = -1;
+  int64_t to_session_id = 0;
+  int64_t to_seq = -1;
+  LinkKind kind = LinkKind::kOdometry;
+  Eigen::Isometry3d T_from_to = Eigen::Isometry3d::Identity();
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
+};
+
+// A named binary layer of a map (OctoMap, point cloud, ...), checksummed in the store.
+struct MapBlob {
+  int64_t map_id = 0;
+  std::string kind;  // e.g. "octomap.ot"
+  std::string data;
+  int64_t updated_unix_ns = 0;
+};
+
+}  // namespace semmap

@@ -1,0 +1,313 @@
+#include "server/ingest/ingest_session.h"
+
+#include <cmath>
+#include <ctime>
+#include <string>
+#include <utility>
+
+#include "common/time_util.h"
+#include "server/ingest/name_validation.h"
+#include "server/sensor/image_decoding.h"
+
+namespace semmap {
+namespace {
+
+constexpr int kStopCancelled = 1;
+constexpr int kStopServer = 2;
+
+// "s-20261122-013045": readable, sortable, unique enough; a suffix resolves collisions.
+std::string GeneratedSessionName() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "s-%Y%m%d-%H%M%S", &utc);
+  return buf;
+}
+
+}  // namespace
+
+IngestSession::IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer,
+                             IngestOptions options)
+    : sink_(std::move(sink)),
+      writer_(writer),
+      options_(std::move(options)),
+      queue_(options_.queue_capacity),
+      started_at_(std::chrono::steady_clock::now()) {
+  worker_ = std::thread([this] { Run(); });
+}
+
+IngestSession::~IngestSession() {
+  Stop();
+  if (!worker_.joinable()) return;
+  // The last reference can be dropped by a callback running on the worker itself (through
+  // the sink); the worker touches no member after OnFinished, so letting it exit is safe.
+  if (worker_.get_id() == std::this_thread::get_id()) {
+    worker_.detach();
+  } else {
+    worker_.join();
+  }
+}
+
+bool IngestSession::TryEnqueue(IngestMessage& message) {
+  if (!queue_.TryPush(message)) return false;
+  received_.fetch_add(1);
+  return true;
+}
+
+void IngestSession::Cancel() {
+  int none = 0;
+  stop_reason_.compare_exchange_strong(none, kStopCancelled);
+  queue_.Shutdown();
+}
+
+void IngestSession::Stop() {
+  int none = 0;
+  stop_reason_.compare_exchange_strong(none, kStopServer);
+  queue_.Shutdown();
+}
+
+void IngestSession::Run() {
+  while (std::optional<IngestMessage> message = queue_.Pop()) {
+    sink_->OnQueueRoom();
+    Status status = Handle(*message);
+    if (!status.ok()) {
+      Finish(std::move(status));
+      return;
+    }
+    if (ended_) {
+      Finish(OkStatus());
+      return;
+    }
+  }
+  // The queue was shut down and drained before the client's end message.
+  Finish(stop_reason_.load() == kStopCancelled ? CancelledError("the client cancelled the stream")
+                                               : UnavailableError("the server is shutting down"));
+}
+
+Status IngestSession::Handle(IngestMessage& message) {
+  {
+    std::lock_guard lock(commit_mutex_);
+    if (!write_error_.ok()) return write_error_;
+  }
+  if (auto* invalid = std::get_if<IngestInvalid>(&message)) return invalid->status;
+  if (auto* start = std::get_if<IngestStartRequest>(&message)) {
+    if (session_) return InvalidArgumentError("a second start message in the same stream");
+    return HandleStart(*start);
+  }
+  if (!session_) return InvalidArgumentError("the first message of an ingest stream must be start");
+  if (auto* frame = std::get_if<IngestFrame>(&message)) return HandleFrame(*frame);
+  ended_ = true;  // IngestEnd
+  return OkStatus();
+}
+
+Status IngestSession::HandleStart(const IngestStartRequest& start) {
+  SEMMAP_RETURN_IF_ERROR(ValidateName("map", start.map));
+  if (!start.session.empty()) SEMMAP_RETURN_IF_ERROR(ValidateName("session", start.session));
+  if (!start.mode) return InvalidArgumentError("start.mode is unspecified");
+  SEMMAP_RETURN_IF_ERROR(ValidateCalibration(start.camera).WithContext("start.camera"));
+  KeyframeSelectorOptions kf = options_.keyframes;
+  if (start.keyframe_min_motion != 0) kf.min_motion = start.keyframe_min_motion;
+  if (start.keyframe_rotation_weight != 0) kf.rotation_weight = start.keyframe_rotation_weight;
+  SEMMAP_RETURN_IF_ERROR(kf.Validate().WithContext("start.keyframes"));
+  SEMMAP_ASSIGN_OR_RETURN(processor_, MakeFrameProcessor(*start.mode, kf));
+
+  SessionInfo created;
+  Status status = writer_->RunSync([&](MapStore& store) -> Status {
+    SEMMAP_ASSIGN_OR_RETURN(MapInfo map, store.GetOrCreateMap(start.map));
+    SessionInfo info;
+    info.map_id = map.id;
+    info.mode = *start.mode;
+    info.camera = start.camera;
+    info.started_unix_ns = UnixNowNs();
+    if (!start.session.empty()) {
+      info.name = start.session;
+      SEMMAP_ASSIGN_OR_RETURN(created, store.CreateSession(info));
+      return OkStatus();
+    }
+    const std::string base = GeneratedSessionName();
+    for (int attempt = 1; attempt <= 100; ++attempt) {
+      info.name = attempt == 1 ? base : base + "-" + std::to_string(attempt);
+      StatusOr<SessionInfo> result = store.CreateSession(info);
+      if (result.ok()) {
+        created = std::move(result).value();
+        return OkStatus();
+      }
+      if (result.status().code() != StatusCode::kAlreadyExists) return result.status();
+    }
+    return InternalError("could not generate a unique session name");
+  });
+  SEMMAP_RETURN_IF_ERROR(status);
+  session_ = created;
+  sink_->OnStarted(*session_);
+  return OkStatus();
+}
+
+StatusOr<DecodedFrame> IngestSession::Decode(IngestFrame& frame) const {
+  if (last_seq_ && frame.seq <= *last_seq_) {
+    return InvalidArgumentError("frame seq " + std::to_string(frame.seq) +
+                                " is not greater than the previous seq " +
+                                std::to_string(*last_seq_));
+  }
+  if (frame.payload_bytes > options_.max_frame_bytes) {
+    return ResourceExhaustedError("frame seq " + std::to_string(frame.seq) + " carries " +
+                                  std::to_string(frame.payload_bytes) +
+                                  " image bytes; the limit is " +
+                                  std::to_string(options_.max_frame_bytes));
+  }
+  if (!frame.stamp_ns) {
+    return InvalidArgumentError("frame seq " + std::to_string(frame.seq) + " has no timestamp");
+  }
+  if (!frame.colour) {
+    return InvalidArgumentError("frame seq " + std::to_string(frame.seq) + " has no colour image");
+  }
+  const CameraCalibration& cam = session_->camera;
+  DecodedFrame decoded;
+  decoded.seq = frame.seq;
+  decoded.stamp_ns = *frame.stamp_ns;
+  const std::string where = "frame seq " + std::to_string(frame.seq);
+  StatusOr<cv::Mat> colour = DecodeColour(*frame.colour, cam.width, cam.height);
+  if (!colour.ok()) return colour.status().WithContext(where);
+  decoded.colour = std::move(colour).value();
+  if (frame.depth) {
+    StatusOr<DecodedDepth> depth = DecodeDepth(*frame.depth, cam.width, cam.height);
+    if (!depth.ok()) return depth.status().WithContext(where);
+    decoded.depth = std::move(depth).value();
+  }
+  if (frame.pose_prior) {
+    Status pose_ok = ValidatePoseTq(*frame.pose_prior);
+    if (!pose_ok.ok()) return pose_ok.WithContext(where + " pose_prior");
+    decoded.T_world_camera_prior = ToIsometry(*frame.pose_prior);
+  }
+  return decoded;
+}
+
+Status IngestSession::HandleFrame(IngestFrame& frame) {
+  SEMMAP_ASSIGN_OR_RETURN(DecodedFrame decoded, Decode(frame));
+  SEMMAP_ASSIGN_OR_RETURN(FrameEstimate estimate, processor_->Process(decoded));
+  last_seq_ = frame.seq;
+  SEMMAP_RETURN_IF_ERROR(SubmitFrame(decoded, frame, estimate));
+  ++frames_;
+  if (estimate.is_keyframe) ++keyframes_;
+
+  FrameAckInfo ack;
+  ack.seq = frame.seq;
+  ack.T_world_camera = estimate.T_world_camera;
+  ack.is_keyframe = estimate.is_keyframe;
+  ack.durable_seq = durable_seq();
+  sink_->OnAck(ack);
+  return OkStatus();
+}
+
+Status IngestSession::SubmitFrame(const DecodedFrame& frame, const IngestFrame& wire,
+                                  const FrameEstimate& estimate) {
+  WriteBatch batch;
+  TrajectoryPose pose;
+  pose.seq = static_cast<int64_t>(frame.seq);
+  pose.stamp_ns = frame.stamp_ns;
+  pose.T_world_camera = estimate.T_world_camera;
+  pose.is_keyframe = estimate.is_keyframe;
+  batch.frames.emplace_back(session_->id, pose);
+
+  if (estimate.is_keyframe) {
+    KeyframeRecord kf;
+    kf.session_id = session_->id;
+    kf.seq = pose.seq;
+    kf.stamp_ns = frame.stamp_ns;
+    kf.T_world_camera = estimate.T_world_camera;
+    SEMMAP_ASSIGN_OR_RETURN(kf.colour, EncodeColourForStorage(*wire.colour, frame.colour));
+    if (frame.depth) {
+      SEMMAP_ASSIGN_OR_RETURN(kf.depth, EncodeDepthForStorage(*wire.depth, *frame.depth));
+      kf.depth_scale = frame.depth->depth_scale;
+    }
+    batch.keyframes.push_back(std::move(kf));
+    if (last_keyframe_seq_) {
+      // Odometry edge from the previous keyframe; ids are resolved by the store.
+      LinkRecord link;
+      link.map_id = session_->map_id;
+      link.kind = LinkKind::kOdometry;
+      link.from_session_id = session_->id;
+      link.from_seq = static_cast<int64_t>(*last_keyframe_seq_);
+      link.to_session_id = session_->id;
+      link.to_seq = pose.seq;
+      link.T_from_to = last_keyframe_pose_.inverse() * estimate.T_world_camera;
+      batch.links.push_back(link);
+    }
+    last_keyframe_seq_ = frame.seq;
+    last_keyframe_pose_ = estimate.T_world_camera;
+  }
+
+  {
+    std::lock_guard lock(commit_mutex_);
+    ++pending_writes_;
+  }
+  const uint64_t seq = frame.seq;
+  Status submitted = writer_->Submit(
+      std::move(batch),
+      [this, seq](const Status& status, const WriteResult&) { OnCommitted(status, seq); });
+  if (!submitted.ok()) {
+    std::lock_guard lock(commit_mutex_);
+    --pending_writes_;
+    all_committed_.notify_all();
+    return submitted.WithContext("storage");
+  }
+  return OkStatus();
+}
+
+void IngestSession::OnCommitted(const Status& status, uint64_t seq) {
+  IngestProgressInfo progress;
+  {
+    std::lock_guard lock(commit_mutex_);
+    --pending_writes_;
+    if (status.ok()) {
+      if (!durable_seq_ || seq > *durable_seq_) durable_seq_ = seq;
+    } else if (write_error_.ok()) {
+      write_error_ = status.WithContext("storing frame seq " + std::to_string(seq) + " failed");
+    }
+    progress.durable_seq = durable_seq_;
+    all_committed_.notify_all();
+  }
+  progress.frames_received = received_.load();
+  progress.frames_processed = frames_.load();
+  progress.keyframes = keyframes_.load();
+  progress.queue_depth = static_cast<uint32_t>(queue_.size());
+  sink_->OnProgress(progress);
+}
+
+std::optional<uint64_t> IngestSession::durable_seq() const {
+  std::lock_guard lock(commit_mutex_);
+  return durable_seq_;
+}
+
+void IngestSession::Finish(Status status) {
+  // Whatever was submitted is committed (or failed) before the client hears the final status,
+  // so the summary's durable_seq is exact.
+  {
+    std::unique_lock lock(commit_mutex_);
+    all_committed_.wait(lock, [&] { return pending_writes_ == 0; });
+    if (status.ok() && !write_error_.ok()) status = write_error_;
+  }
+  IngestSummaryInfo summary;
+  if (session_) {
+    const int64_t session_id = session_->id;
+    Status ended = writer_->RunSync(
+        [&](MapStore& store) { return store.EndSession(session_id, UnixNowNs()); });
+    if (status.ok() && !ended.ok()) status = ended.WithContext("ending the session");
+    summary.map = session_->map_name;
+    summary.session = session_->name;
+  }
+  summary.frames = frames_.load();
+  summary.keyframes = keyframes_.load();
+  summary.durable_seq = durable_seq();
+  summary.duration_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started_at_).count();
+  if (!status.ok() && summary.durable_seq) {
+    status = Status(status.code(), status.message() + " (frames up to seq " +
+                                       std::to_string(*summary.durable_seq) + " are stored)");
+  }
+  queue_.Shutdown();
+  finished_.store(true);
+  sink_->OnFinished(status, summary);
+}
+
+}  // namespace semmap

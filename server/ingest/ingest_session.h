@@ -1,0 +1,79 @@
+// One ingest stream's pipeline: a bounded input queue drained by a worker thread that validates,
+// decodes, estimates the pose, decides keyframes and hands batches to the storage writer.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "common/bounded_queue.h"
+#include "server/ingest/frame_processor.h"
+#include "server/ingest/ingest_options.h"
+#include "server/ingest/ingest_types.h"
+#include "storage/storage_writer.h"
+
+namespace semmap {
+
+class IngestSession {
+ public:
+  IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer, IngestOptions options);
+  ~IngestSession();  // stops and joins the worker
+  IngestSession(const IngestSession&) = delete;
+  IngestSession& operator=(const IngestSession&) = delete;
+
+  // Never blocks. False when the queue is full: pause reading until IngestSink::OnQueueRoom.
+  bool TryEnqueue(IngestMessage& message);
+  bool HasRoom() const { return queue_.size() < queue_.capacity(); }
+
+  // The client went away: store what is queued, then finish with CANCELLED.
+  void Cancel();
+  // The server is stopping: store what is queued, then finish with UNAVAILABLE.
+  void Stop();
+  bool finished() const { return finished_.load(); }
+
+ private:
+  void Run();
+  Status Handle(IngestMessage& message);
+  Status HandleStart(const IngestStartRequest& start);
+  Status HandleFrame(IngestFrame& frame);
+  StatusOr<DecodedFrame> Decode(IngestFrame& frame) const;
+  Status SubmitFrame(const DecodedFrame& frame, const IngestFrame& wire,
+                     const FrameEstimate& estimate);
+  void OnCommitted(const Status& status, uint64_t seq);
+  void Finish(Status status);
+  std::optional<uint64_t> durable_seq() const;
+
+  std::shared_ptr<IngestSink> sink_;
+  StorageWriter* writer_;
+  const IngestOptions options_;
+  BoundedQueue<IngestMessage> queue_;
+
+  // Worker-thread state.
+  std::optional<SessionInfo> session_;
+  std::unique_ptr<FrameProcessor> processor_;
+  std::optional<uint64_t> last_seq_;
+  std::optional<uint64_t> last_keyframe_seq_;
+  Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
+  bool ended_ = false;
+  std::chrono::steady_clock::time_point started_at_;
+
+  // Shared with the writer thread's commit callbacks.
+  mutable std::mutex commit_mutex_;
+  std::condition_variable all_committed_;
+  size_t pending_writes_ = 0;
+  std::optional<uint64_t> durable_seq_;
+  Status write_error_;
+
+  std::atomic<uint64_t> received_{0};
+  std::atomic<uint64_t> frames_{0};  // read by commit callbacks for progress
+  std::atomic<uint64_t> keyframes_{0};
+  std::atomic<int> stop_reason_{0};  // 0 none, 1 cancelled, 2 server stop
+  std::atomic<bool> finished_{false};
+  std::thread worker_;
+};
+
+}  // namespace semmap

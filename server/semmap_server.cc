@@ -1,0 +1,108 @@
+#include "server/semmap_server.h"
+
+#include <fcntl.h>
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <system_error>
+
+#include "server/query/store_map_query.h"
+#include "storage/sqlite/sqlite_map_store.h"
+
+namespace semmap {
+namespace {
+
+StatusOr<int> LockDataDir(const std::string& dir) {
+  const std::string path = dir + "/LOCK";
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return UnavailableError("cannot open " + path);
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd);
+    return FailedPreconditionError("data directory " + dir +
+                                   " is in use by another semmapd (lock " + path + ")");
+  }
+  return fd;
+}
+
+}  // namespace
+
+StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions& options) {
+  SEMMAP_RETURN_IF_ERROR(options.Validate());
+  std::unique_ptr<SemmapServer> server(new SemmapServer());
+  server->options_ = options;
+
+  std::error_code ec;
+  std::filesystem::create_directories(options.data_dir, ec);
+  if (ec) {
+    return FailedPreconditionError("cannot create data directory " + options.data_dir + ": " +
+                                   ec.message());
+  }
+  SEMMAP_ASSIGN_OR_RETURN(server->lock_fd_, LockDataDir(options.data_dir));
+
+  const std::string db_path = options.data_dir + "/semmap.db";
+  SqliteOptions sqlite;
+  sqlite.synchronous_full = options.sync_full;
+  // The writer opens first so migrations run before the reader connects.
+  SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SqliteMapStore> write_store,
+                          SqliteMapStore::Open(db_path, sqlite));
+  SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SqliteMapStore> read_store,
+                          SqliteMapStore::Open(db_path, sqlite));
+  StorageWriter::Options writer_options;
+  writer_options.queue_capacity = options.storage_queue_capacity;
+  SEMMAP_ASSIGN_OR_RETURN(server->writer_,
+                          StorageWriter::Start(std::move(write_store), writer_options));
+  server->query_ = std::make_unique<StoreMapQuery>(std::move(read_store));
+  server->ingest_ = std::make_unique<IngestManager>(server->writer_.get(), options.ingest);
+  server->service_ = std::make_unique<MapServiceImpl>(server->ingest_.get(), server->query_.get());
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &server->port_);
+  builder.RegisterService(server->service_.get());
+  builder.SetMaxReceiveMessageSize(options.max_message_mb << 20);
+  builder.SetMaxSendMessageSize(options.max_message_mb << 20);
+  server->server_ = builder.BuildAndStart();
+  if (!server->server_ || server->port_ == 0) {
+    server->server_.reset();
+    Status stopped = server->writer_->Stop();
+    (void)stopped;
+    return UnavailableError("cannot listen on " + options.listen +
+                            " (address in use or not valid)");
+  }
+  server->server_->GetHealthCheckService()->SetServingStatus(true);
+  return server;
+}
+
+SemmapServer::~SemmapServer() {
+  Status status = Shutdown();
+  (void)status;
+  if (lock_fd_ >= 0) ::close(lock_fd_);
+}
+
+std::string SemmapServer::address() const {
+  const std::string host = options_.listen.substr(0, options_.listen.rfind(':'));
+  return host + ":" + std::to_string(port_);
+}
+
+Status SemmapServer::Shutdown() {
+  if (shut_down_) return OkStatus();
+  shut_down_ = true;
+  if (server_) {
+    server_->GetHealthCheckService()->SetServingStatus(false);
+    // Streams store what they have queued and finish with UNAVAILABLE; then the server stops.
+    ingest_->BeginShutdown();
+    server_->Shutdown(std::chrono::system_clock::now() +
+                      std::chrono::seconds(options_.shutdown_grace_s));
+  }
+  if (ingest_) ingest_->Join();
+  Status status = writer_ ? writer_->Stop() : OkStatus();  // commits and checkpoints the WAL
+  if (server_) server_->Wait();
+  return status;
+}
+
+}  // namespace semmap

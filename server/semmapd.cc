@@ -1,0 +1,107 @@
+// semmapd: the semmap map server. Flags are validated and logged at start; SIGINT/SIGTERM are
+// taken on a dedicated sigwait thread (never in a signal handler) and shut down cleanly.
+#include <pthread.h>
+#include <signal.h>
+
+#include <cstdio>
+#include <iostream>
+
+#include "common/arg_parser.h"
+#include "server/semmap_server.h"
+
+namespace {
+
+constexpr char kUsage[] =
+    "usage: semmapd [options]\n"
+    "\n"
+    "The semmap map server: ingests camera streams over gRPC (semmap.v1.MapService), stores\n"
+    "maps, sessions and keyframes in SQLite under --data-dir and answers map queries.\n"
+    "SIGINT/SIGTERM: stop accepting, store what was received, commit, exit 0.\n"
+    "\n"
+    "options:\n";
+
+semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions* options) {
+  options->listen = args.Get("listen", options->listen);
+  options->data_dir = args.Get("data-dir", options->data_dir);
+  const std::string sync = args.Get("sqlite-sync", "full");
+  if (sync != "full" && sync != "normal") {
+    return semmap::InvalidArgumentError("--sqlite-sync must be full or normal");
+  }
+  options->sync_full = sync == "full";
+  SEMMAP_ASSIGN_OR_RETURN(long long queue,
+                          args.GetInt("queue-capacity", options->ingest.queue_capacity));
+  if (queue < 1) return semmap::InvalidArgumentError("--queue-capacity must be >= 1");
+  options->ingest.queue_capacity = static_cast<size_t>(queue);
+  SEMMAP_ASSIGN_OR_RETURN(long long max_mb, args.GetInt("max-message-mb", 64));
+  options->max_message_mb = static_cast<int>(max_mb);
+  options->ingest.max_frame_bytes = static_cast<size_t>(std::max(1LL, max_mb)) << 20;
+  SEMMAP_ASSIGN_OR_RETURN(
+      options->ingest.keyframes.min_motion,
+      args.GetDouble("keyframe-min-motion", options->ingest.keyframes.min_motion));
+  SEMMAP_ASSIGN_OR_RETURN(
+      options->ingest.keyframes.rotation_weight,
+      args.GetDouble("keyframe-rotation-weight", options->ingest.keyframes.rotation_weight));
+  SEMMAP_ASSIGN_OR_RETURN(long long grace, args.GetInt("shutdown-grace-s", 5));
+  options->shutdown_grace_s = static_cast<int>(grace);
+  return options->Validate();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  semmap::ArgParser args;
+  args.AddFlag("listen", "HOST:PORT",
+               "address to serve on (default 127.0.0.1:50051; port 0 picks one)");
+  args.AddFlag("data-dir", "DIR", "where the SQLite database lives (default ./semmap-data)");
+  args.AddFlag("sqlite-sync", "full|normal", "SQLite synchronous mode (default full)");
+  args.AddFlag("queue-capacity", "N", "frames buffered per ingest stream (default 8)");
+  args.AddFlag("max-message-mb", "MB", "largest accepted message / frame payload (default 64)");
+  args.AddFlag("keyframe-min-motion", "M", "keyframe motion threshold (default 0.10)");
+  args.AddFlag("keyframe-rotation-weight", "M_PER_RAD",
+               "rotation weight in the motion norm (default 0.5)");
+  args.AddFlag("shutdown-grace-s", "S", "seconds streams get to finish at shutdown (default 5)");
+  args.AddSwitch("help", "print this help");
+
+  semmap::ServerOptions options;
+  semmap::Status parsed = args.Parse(argc, argv);
+  if (parsed.ok() && args.Has("help")) {
+    std::cout << kUsage << args.Usage();
+    return 0;
+  }
+  if (parsed.ok() && !args.positional().empty()) {
+    parsed = semmap::InvalidArgumentError("unexpected argument '" + args.positional()[0] + "'");
+  }
+  if (parsed.ok()) parsed = ParseOptions(args, &options);
+  if (!parsed.ok()) {
+    std::cerr << "semmapd: " << parsed.message() << "\n(see semmapd --help)\n";
+    return 2;
+  }
+
+  // Block the stop signals in every thread (gRPC's included), then wait for them here.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  std::cerr << "semmapd: starting with " << options.ToString() << std::endl;
+  auto server = semmap::SemmapServer::Start(options);
+  if (!server.ok()) {
+    std::cerr << "semmapd: " << server.status().ToString() << std::endl;
+    return 1;
+  }
+  // Machine-readable line: scripts and tests wait for it to learn the port.
+  std::cout << "semmapd: listening on " << (*server)->address() << std::endl;
+
+  int signal_number = 0;
+  sigwait(&stop_signals, &signal_number);
+  std::cerr << "semmapd: received " << (signal_number == SIGINT ? "SIGINT" : "SIGTERM")
+            << ", shutting down" << std::endl;
+  semmap::Status stopped = (*server)->Shutdown();
+  if (!stopped.ok()) {
+    std::cerr << "semmapd: shutdown: " << stopped.ToString() << std::endl;
+    return 1;
+  }
+  std::cerr << "semmapd: stopped cleanly" << std::endl;
+  return 0;
+}

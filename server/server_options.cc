@@ -1,0 +1,36 @@
+#include "server/server_options.h"
+
+#include <sstream>
+
+namespace semmap {
+
+Status ServerOptions::Validate() const {
+  if (listen.empty() || listen.find(':') == std::string::npos) {
+    return InvalidArgumentError("--listen must be HOST:PORT (got '" + listen + "')");
+  }
+  if (data_dir.empty()) return InvalidArgumentError("--data-dir must not be empty");
+  if (max_message_mb < 1 || max_message_mb > 1024) {
+    return InvalidArgumentError("--max-message-mb must be in 1..1024");
+  }
+  if (shutdown_grace_s < 0 || shutdown_grace_s > 60) {
+    return InvalidArgumentError("--shutdown-grace-s must be in 0..60");
+  }
+  if (storage_queue_capacity < 1 || storage_queue_capacity > 4096) {
+    return InvalidArgumentError("storage queue capacity must be in 1..4096");
+  }
+  return ingest.Validate();
+}
+
+std::string ServerOptions::ToString() const {
+  std::ostringstream out;
+  out << "listen=" << listen << " data_dir=" << data_dir
+      << " sqlite_synchronous=" << (sync_full ? "FULL" : "NORMAL")
+      << " max_message_mb=" << max_message_mb << " shutdown_grace_s=" << shutdown_grace_s
+      << " queue_capacity=" << ingest.queue_capacity
+      << " max_frame_bytes=" << ingest.max_frame_bytes
+      << " keyframe_min_motion=" << ingest.keyframes.min_motion
+      << " keyframe_rotation_weight=" << ingest.keyframes.rotation_weight;
+  return out.str();
+}
+
+}  // namespace semmap

@@ -1,0 +1,24 @@
+// Everything semmapd can be told, validated once at start and logged.
+#pragma once
+
+#include <string>
+
+#include "common/status.h"
+#include "server/ingest/ingest_options.h"
+
+namespace semmap {
+
+struct ServerOptions {
+  std::string listen = "127.0.0.1:50051";
+  std::string data_dir = "./semmap-data";
+  bool sync_full = true;  // SQLite synchronous=FULL: acknowledged-durable frames survive power loss
+  int max_message_mb = 64;
+  int shutdown_grace_s = 5;            // time in-flight streams get to finish at shutdown
+  size_t storage_queue_capacity = 64;  // write batches waiting for the storage writer
+  IngestOptions ingest;
+
+  Status Validate() const;
+  std::string ToString() const;  // one line per option, for the start-up log
+};
+
+}  // namespace semmap

@@ -1,0 +1,226 @@
+#include "server/service/ingest_reactor.h"
+
+#include "server/service/ingest_conversions.h"
+
+namespace semmap {
+
+// Forwards session callbacks to the reactor until the reactor is done; afterwards drops them.
+class IngestReactor::Sink final : public IngestSink {
+ public:
+  explicit Sink(IngestReactor* reactor) : reactor_(reactor) {}
+  void Detach() {
+    std::lock_guard lock(mutex_);
+    reactor_ = nullptr;
+  }
+  void OnStarted(const SessionInfo& s) override {
+    Call([&](IngestReactor* r) { r->Started(s); });
+  }
+  void OnAck(const FrameAckInfo& a) override {
+    Call([&](IngestReactor* r) { r->Ack(a); });
+  }
+  void OnProgress(const IngestProgressInfo& p) override {
+    Call([&](IngestReactor* r) { r->Progress(p); });
+  }
+  void OnQueueRoom() override {
+    Call([](IngestReactor* r) { r->QueueRoom(); });
+  }
+  void OnFinished(const Status& st, const IngestSummaryInfo& s) override {
+    Call([&](IngestReactor* r) { r->Finished(st, s); });
+  }
+
+ private:
+  template <typename F>
+  void Call(F&& f) {
+    std::lock_guard lock(mutex_);
+    if (reactor_ != nullptr) f(reactor_);
+  }
+  std::mutex mutex_;
+  IngestReactor* reactor_;
+};
+
+IngestReactor::IngestReactor(grpc::CallbackServerContext* context, IngestManager* manager)
+    : context_(context), sink_(std::make_shared<Sink>(this)) {
+  StatusOr<std::shared_ptr<IngestSession>> session = manager->Open(sink_);
+  if (!session.ok()) {
+    finish_called_ = true;
+    Finish(ToGrpcStatus(session.status()));
+    return;
+  }
+  session_ = std::move(session).value();
+  read_in_flight_ = true;
+  StartRead(&request_);
+}
+
+void IngestReactor::Run(const Actions& actions) {
+  if (actions.read) StartRead(&request_);
+  if (actions.write != nullptr) StartWrite(actions.write);
+  if (actions.finish) Finish(*actions.finish);
+}
+
+void IngestReactor::PushToSessionLocked(IngestMessage message) {
+  // Reads start only while the queue has room and only this reactor enqueues, so this holds.
+  if (!session_->TryEnqueue(message)) {
+    reads_closed_ = true;
+    session_->Stop();
+  }
+}
+
+void IngestReactor::DecideReadLocked(Actions* actions) {
+  if (read_in_flight_ || reads_closed_ || finish_status_ || !session_) return;
+  if (!end_held_ && !session_->HasRoom()) return;        // QueueRoom() resumes
+  if (outgoing_.size() >= kMaxPendingResponses) return;  // OnWriteDone resumes
+  read_in_flight_ = true;
+  actions->read = true;
+}
+
+void IngestReactor::DecideWriteOrFinishLocked(Actions* actions) {
+  if (writing_ || finish_called_) return;
+  if (!outgoing_.empty() && !client_gone_) {
+    writing_ = std::move(outgoing_.front());
+    outgoing_.pop_front();
+    if (writing_->has_progress()) progress_queued_ = false;
+    actions->write = &*writing_;
+    return;
+  }
+  if (finish_status_) {
+    finish_called_ = true;
+    actions->finish = *finish_status_;
+  }
+}
+
+void IngestReactor::EnqueueLocked(v1::IngestResponse response) {
+  if (client_gone_ || finish_called_) return;
+  outgoing_.push_back(std::move(response));
+}
+
+void IngestReactor::OnReadDone(bool ok) {
+  Actions actions;
+  {
+    std::lock_guard lock(mutex_);
+    read_in_flight_ = false;
+    if (!ok) {
+      // The client closed its side (or the call broke). A close without `end` ends the
+      // session the same way; a broken call is handled by OnCancel.
+      reads_closed_ = true;
+      if (!context_->IsCancelled()) PushToSessionLocked(IngestEnd{});
+    } else if (end_held_) {
+      reads_closed_ = true;
+      PushToSessionLocked(
+          IngestInvalid{InvalidArgumentError("a message arrived after the end message")});
+    } else {
+      IngestMessage message = FromProto(std::move(request_));
+      request_.Clear();
+      if (std::holds_alternative<IngestEnd>(message)) {
+        end_held_ = true;  // confirmed by the half-close that must follow
+      } else {
+        if (std::holds_alternative<IngestInvalid>(message)) reads_closed_ = true;
+        PushToSessionLocked(std::move(message));
+      }
+    }
+    DecideReadLocked(&actions);
+  }
+  Run(actions);
+}
+
+void IngestReactor::OnWriteDone(bool ok) {
+  Actions actions;
+  {
+    std::lock_guard lock(mutex_);
+    writing_.reset();
+    if (!ok) {
+      client_gone_ = true;
+      outgoing_.clear();
+    }
+    DecideWriteOrFinishLocked(&actions);
+    DecideReadLocked(&actions);
+  }
+  Run(actions);
+}
+
+void IngestReactor::OnCancel() {
+  {
+    std::lock_guard lock(mutex_);
+    client_gone_ = true;
+    reads_closed_ = true;
+    outgoing_.clear();
+  }
+  // The session still stores what it has queued, then reports Finished.
+  if (session_) session_->Cancel();
+}
+
+void IngestReactor::OnDone() {
+  sink_->Detach();
+  delete this;
+}
+
+void IngestReactor::Started(const SessionInfo& session) {
+  Actions actions;
+  {
+    std::lock_guard lock(mutex_);
+    v1::IngestResponse response;
+    ToProto(session, response.mutable_started());
+    EnqueueLocked(std::move(response));
+    DecideWriteOrFinishLocked(&actions);
+  }
+  Run(actions);
+}
+
+void IngestReactor::Ack(const FrameAckInfo& ack) {
+  Actions actions;
+  {
+    std::lock_guard lock(mutex_);
+    v1::IngestResponse response;
+    ToProto(ack, response.mutable_ack());
+    EnqueueLocked(std::move(response));
+    DecideWriteOrFinishLocked(&actions);
+  }
+  Run(actions);
+}
+
+void IngestReactor::Progress(const IngestProgressInfo& progress) {
+  Actions actions;
+  {
+    std::lock_guard lock(mutex_);
+    if (progress_queued_) {
+      // Replace the queued progress with the newer one: progress never piles up.
+      for (auto it = outgoing_.rbegin(); it != outgoing_.rend(); ++it) {
+        if (it->has_progress()) {
+          ToProto(progress, it->mutable_progress());
+          break;
+        }
+      }
+    } else {
+      v1::IngestResponse response;
+      ToProto(progress, response.mutable_progress());
+      EnqueueLocked(std::move(response));
+      progress_queued_ = !outgoing_.empty();
+    }
+    DecideWriteOrFinishLocked(&actions);
+  }
+  Run(actions);
+}
+
+void IngestReactor::QueueRoom() {
+  Actions actions;
+  {
+    std::lock_guard lock(mutex_);
+    DecideReadLocked(&actions);
+  }
+  Run(actions);
+}
+
+void IngestReactor::Finished(const Status& status, const IngestSummaryInfo& summary) {
+  Actions actions;
+  {
+    std::lock_guard lock(mutex_);
+    v1::IngestResponse response;
+    ToProto(summary, response.mutable_summary());
+    EnqueueLocked(std::move(response));
+    reads_closed_ = true;
+    finish_status_ = ToGrpcStatus(status);
+    DecideWriteOrFinishLocked(&actions);
+  }
+  Run(actions);
+}
+
+}  // namespace semmap

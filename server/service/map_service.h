@@ -1,0 +1,34 @@
+// semmap.v1.MapService on gRPC's callback API: one small handler per RPC over the ingest
+// manager and the query interface.
+#pragma once
+
+#include "common/map_query.h"
+#include "semmap/v1/service.grpc.pb.h"
+#include "server/ingest/ingest_manager.h"
+
+namespace semmap {
+
+class MapServiceImpl final : public v1::MapService::CallbackService {
+ public:
+  MapServiceImpl(IngestManager* ingest, MapQueryInterface* query)
+      : ingest_(ingest), query_(query) {}
+
+  grpc::ServerBidiReactor<v1::IngestRequest, v1::IngestResponse>* Ingest(
+      grpc::CallbackServerContext* context) override;
+  grpc::ServerUnaryReactor* ListMaps(grpc::CallbackServerContext* context,
+                                     const v1::ListMapsRequest* request,
+                                     v1::ListMapsResponse* response) override;
+  grpc::ServerUnaryReactor* ListSessions(grpc::CallbackServerContext* context,
+                                         const v1::ListSessionsRequest* request,
+                                         v1::ListSessionsResponse* response) override;
+  grpc::ServerWriteReactor<v1::GetTrajectoryResponse>* GetTrajectory(
+      grpc::CallbackServerContext* context, const v1::GetTrajectoryRequest* request) override;
+  grpc::ServerWriteReactor<v1::ExportMapResponse>* ExportMap(
+      grpc::CallbackServerContext* context, const v1::ExportMapRequest* request) override;
+
+ private:
+  IngestManager* ingest_;
+  MapQueryInterface* query_;
+};
+
+}  // namespace semmap

@@ -1,0 +1,70 @@
+// MapStore: durable storage of maps, sessions, per-frame poses, keyframes, links and map blobs.
+// Implementations are not required to be thread-safe: the server gives the single storage
+// writer thread its own instance and serialises reads on another (SQLite WAL lets them overlap).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/map_types.h"
+#include "common/status.h"
+
+namespace semmap {
+
+// Everything one ingest step wants persisted; applied atomically (one transaction).
+struct WriteBatch {
+  std::vector<std::pair<int64_t, TrajectoryPose>> frames;  // (session_id, pose)
+  std::vector<KeyframeRecord> keyframes;                   // ids assigned by the store, in order
+  std::vector<LinkRecord> links;
+  std::vector<MapBlob> blobs;  // replaces the blob of the same (map_id, kind)
+  bool empty() const {
+    return frames.empty() && keyframes.empty() && links.empty() && blobs.empty();
+  }
+  void Append(WriteBatch&& other);
+};
+
+// Counts of rows a batch wrote, for logs and benches.
+struct WriteResult {
+  std::vector<int64_t> keyframe_ids;  // same order as WriteBatch::keyframes
+};
+
+class MapStore {
+ public:
+  virtual ~MapStore() = default;
+
+  // --- maps and sessions ---
+  virtual StatusOr<std::vector<MapInfo>> ListMaps() = 0;
+  virtual StatusOr<MapInfo> GetMap(const std::string& name) = 0;  // NOT_FOUND if absent
+  virtual StatusOr<MapInfo> GetOrCreateMap(const std::string& name) = 0;
+  // All sessions of a map, or of every map when map_name is empty; NOT_FOUND for an unknown map.
+  virtual StatusOr<std::vector<SessionInfo>> ListSessions(const std::string& map_name) = 0;
+  virtual StatusOr<SessionInfo> GetSession(const std::string& map_name,
+                                           const std::string& session_name) = 0;
+  // ALREADY_EXISTS when the map has a session of that name. Fills id and map_name.
+  virtual StatusOr<SessionInfo> CreateSession(const SessionInfo& session) = 0;
+  virtual Status EndSession(int64_t session_id, int64_t ended_unix_ns) = 0;
+
+  // --- trajectory and keyframes ---
+  virtual StatusOr<WriteResult> Write(const WriteBatch& batch) = 0;
+  // Poses in seq order; keyframes_only restricts to keyframes.
+  virtual StatusOr<std::vector<TrajectoryPose>> GetTrajectory(int64_t session_id,
+                                                              bool keyframes_only) = 0;
+  virtual StatusOr<KeyframeRecord> GetKeyframe(int64_t keyframe_id) = 0;
+  // Keyframes of a session in seq order, without image bytes unless with_images.
+  virtual StatusOr<std::vector<KeyframeRecord>> ListKeyframes(int64_t session_id,
+                                                              bool with_images) = 0;
+  virtual StatusOr<std::vector<LinkRecord>> ListLinks(int64_t map_id) = 0;
+  // Replaces keyframe poses after an optimisation (ids must exist).
+  virtual Status UpdateKeyframePoses(
+      const std::vector<std::pair<int64_t, Eigen::Isometry3d>>& T_world_keyframe) = 0;
+
+  // --- map blobs (length + sha256 verified on read: DATA_LOSS on mismatch) ---
+  virtual StatusOr<MapBlob> GetBlob(int64_t map_id, const std::string& kind) = 0;
+
+  // Flushes the WAL into the main database (on clean shutdown).
+  virtual Status Checkpoint() = 0;
+};
+
+}  // namespace semmap

@@ -1,0 +1,146 @@
+#include "storage/sqlite/migrations.h"
+
+#include <string>
+
+#include "storage/sqlite/transaction.h"
+
+namespace semmap::sqlite {
+namespace {
+
+// Version 1. Poses are translation + unit quaternion (tx..qw, qw >= 0); times are Unix or
+// sensor nanoseconds; links.information is the 6x6 information matrix as 36 little-endian
+// doubles in row-major order. STRICT makes SQLite reject values of the wrong type.
+constexpr char kSchemaV1[] = R"sql(
+CREATE TABLE maps (
+  id INTEGER PRIMARY KEY,
+  name TEXT NOT NULL UNIQUE,
+  created_ns INTEGER NOT NULL
+) STRICT;
+
+CREATE TABLE sessions (
+  id INTEGER PRIMARY KEY,
+  map_id INTEGER NOT NULL REFERENCES maps(id) ON DELETE CASCADE,
+  name TEXT NOT NULL,
+  mode INTEGER NOT NULL CHECK (mode IN (1, 2, 3)),
+  width INTEGER NOT NULL,
+  height INTEGER NOT NULL,
+  fx REAL NOT NULL, fy REAL NOT NULL, cx REAL NOT NULL, cy REAL NOT NULL,
+  k1 REAL NOT NULL, k2 REAL NOT NULL, p1 REAL NOT NULL, p2 REAL NOT NULL, k3 REAL NOT NULL,
+  depth_scale REAL NOT NULL,
+  started_ns INTEGER NOT NULL,
+  ended_ns INTEGER,
+  UNIQUE (map_id, name)
+) STRICT;
+
+CREATE TABLE frames (
+  session_id INTEGER NOT NULL REFERENCES sessions(id) ON DELETE CASCADE,
+  seq INTEGER NOT NULL,
+  stamp_ns INTEGER NOT NULL,
+  tx REAL NOT NULL, ty REAL NOT NULL, tz REAL NOT NULL,
+  qx REAL NOT NULL, qy REAL NOT NULL, qz REAL NOT NULL, qw REAL NOT NULL,
+  is_keyframe INTEGER NOT NULL CHECK (is_keyframe IN (0, 1)),
+  PRIMARY KEY (session_id, seq)
+) STRICT, WITHOUT ROWID;
+
+CREATE TABLE keyframes (
+  id INTEGER PRIMARY KEY,
+  session_id INTEGER NOT NULL REFERENCES sessions(id) ON DELETE CASCADE,
+  seq INTEGER NOT NULL,
+  stamp_ns INTEGER NOT NULL,
+  tx REAL NOT NULL, ty REAL NOT NULL, tz REAL NOT NULL,
+  qx REAL NOT NULL, qy REAL NOT NULL, qz REAL NOT NULL, qw REAL NOT NULL,
+  colour_format TEXT NOT NULL,
+  colour BLOB NOT NULL,
+  depth_format TEXT NOT NULL,
+  depth BLOB NOT NULL,
+  depth_scale REAL NOT NULL,
+  UNIQUE (session_id, seq)
+) STRICT;
+
+CREATE TABLE links (
+  id INTEGER PRIMARY KEY,
+  map_id INTEGER NOT NULL REFERENCES maps(id) ON DELETE CASCADE,
+  from_kf INTEGER NOT NULL REFERENCES keyframes(id) ON DELETE CASCADE,
+  to_kf INTEGER NOT NULL REFERENCES keyframes(id) ON DELETE CASCADE,
+  kind INTEGER NOT NULL CHECK (kind IN (1, 2)),
+  tx REAL NOT NULL, ty REAL NOT NULL, tz REAL NOT NULL,
+  qx REAL NOT NULL, qy REAL NOT NULL, qz REAL NOT NULL, qw REAL NOT NULL,
+  information BLOB NOT NULL CHECK (length(information) = 288)
+) STRICT;
+-- ListLinks scans by map; the keyframe indexes keep foreign-key checks on keyframe deletion
+-- from scanning the whole table.
+CREATE INDEX links_by_map ON links (map_id, id);
+CREATE INDEX links_by_from ON links (from_kf);
+CREATE INDEX links_by_to ON links (to_kf);
+
+CREATE TABLE blobs (
+  map_id INTEGER NOT NULL REFERENCES maps(id) ON DELETE CASCADE,
+  kind TEXT NOT NULL,
+  data BLOB NOT NULL,
+  length INTEGER NOT NULL,
+  sha256 BLOB NOT NULL CHECK (length(sha256) = 32),
+  updated_ns INTEGER NOT NULL,
+  PRIMARY KEY (map_id, kind)
+) STRICT;
+)sql";
+
+constexpr Migration kMigrations[] = {
+    {1, "initial schema", kSchemaV1},
+};
+
+}  // namespace
+
+std::span<const Migration> SchemaMigrations() { return kMigrations; }
+
+int LatestSchemaVersion() { return SchemaMigrations().back().version; }
+
+StatusOr<int> ReadSchemaVersion(Connection& connection) {
+  SEMMAP_ASSIGN_OR_RETURN(int64_t version, connection.QueryInt64("PRAGMA user_version"));
+  return static_cast<int>(version);
+}
+
+namespace {
+
+Status CheckNotNewer(int current, int latest) {
+  if (current <= latest) return OkStatus();
+  return FailedPreconditionError("database schema version " + std::to_string(current) +
+                                 " is newer than this semmapd supports (" + std::to_string(latest) +
+                                 "); upgrade semmapd");
+}
+
+Status CheckSteps(std::span<const Migration> migrations) {
+  for (size_t i = 0; i < migrations.size(); ++i) {
+    if (migrations[i].version != static_cast<int>(i) + 1) {
+      return InternalError("migration steps must be numbered 1, 2, 3, ... (step " +
+                           std::to_string(i) + " has version " +
+                           std::to_string(migrations[i].version) + ")");
+    }
+  }
+  return OkStatus();
+}
+
+}  // namespace
+
+Status ApplyMigrations(Connection& connection, std::span<const Migration> migrations) {
+  SEMMAP_RETURN_IF_ERROR(CheckSteps(migrations));
+  const int latest = migrations.empty() ? 0 : migrations.back().version;
+  // Fast path without the write lock: a reader opening next to a busy writer must not wait.
+  SEMMAP_ASSIGN_OR_RETURN(int current, ReadSchemaVersion(connection));
+  SEMMAP_RETURN_IF_ERROR(CheckNotNewer(current, latest));
+  if (current == latest) return OkStatus();
+
+  SEMMAP_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(connection));
+  // Another connection may have migrated between the check and the lock: read again.
+  SEMMAP_ASSIGN_OR_RETURN(current, ReadSchemaVersion(connection));
+  SEMMAP_RETURN_IF_ERROR(CheckNotNewer(current, latest));
+  for (const Migration& step : migrations) {
+    if (step.version <= current) continue;
+    SEMMAP_RETURN_IF_ERROR(connection.Exec(step.sql).WithContext(
+        "schema migration " + std::to_string(step.version) + " (" + step.description + ")"));
+  }
+  // PRAGMA takes no parameters; the value is our own integer.
+  SEMMAP_RETURN_IF_ERROR(connection.Exec("PRAGMA user_version = " + std::to_string(latest)));
+  return transaction.Commit();
+}
+
+}  // namespace semmap::sqlite

@@ -1,0 +1,85 @@
+// MapStore on one SQLite database file (schema in migrations.cc). Each instance owns one
+// connection and is used by one thread at a time; the server opens one for the writer thread
+// and one for queries, which WAL lets run side by side.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+#include "storage/map_store.h"
+#include "storage/sqlite/connection.h"
+
+namespace semmap {
+
+struct SqliteOptions {
+  int busy_timeout_ms = 5000;  // wait this long for the other connection's lock
+  // true: synchronous=FULL (a commit survives power loss). false: NORMAL (faster; WAL still
+  // survives a process crash, but the last commits may be lost if the machine loses power).
+  bool synchronous_full = true;
+};
+
+class SqliteMapStore final : public MapStore {
+ public:
+  // Opens (creating if missing) the database at `path` and migrates it to the current schema.
+  // The parent directory must exist. FAILED_PRECONDITION when the file cannot be opened for
+  // writing or its schema is newer than this binary's.
+  static StatusOr<std::unique_ptr<SqliteMapStore>> Open(const std::string& path,
+                                                        const SqliteOptions& options);
+
+  StatusOr<std::vector<MapInfo>> ListMaps() override;
+  StatusOr<MapInfo> GetMap(const std::string& name) override;
+  StatusOr<MapInfo> GetOrCreateMap(const std::string& name) override;
+  StatusOr<std::vector<SessionInfo>> ListSessions(const std::string& map_name) override;
+  StatusOr<SessionInfo> GetSession(const std::string& map_name,
+                                   const std::string& session_name) override;
+  StatusOr<SessionInfo> CreateSession(const SessionInfo& session) override;
+  Status EndSession(int64_t session_id, int64_t ended_unix_ns) override;
+
+  // One transaction. Frames are upserted by (session_id, seq); links may name keyframes by id
+  // or, with id 0, by (session_id, seq), including keyframes of the same batch.
+  StatusOr<WriteResult> Write(const WriteBatch& batch) override;
+  StatusOr<std::vector<TrajectoryPose>> GetTrajectory(int64_t session_id,
+                                                      bool keyframes_only) override;
+  StatusOr<KeyframeRecord> GetKeyframe(int64_t keyframe_id) override;
+  // Without images the records keep their formats but no bytes.
+  StatusOr<std::vector<KeyframeRecord>> ListKeyframes(int64_t session_id,
+                                                      bool with_images) override;
+  StatusOr<std::vector<LinkRecord>> ListLinks(int64_t map_id) override;
+  // Also moves the frames (trajectory rows) of those keyframes, so a keyframe has one pose.
+  Status UpdateKeyframePoses(
+      const std::vector<std::pair<int64_t, Eigen::Isometry3d>>& T_world_keyframe) override;
+  StatusOr<MapBlob> GetBlob(int64_t map_id, const std::string& kind) override;
+  // UNAVAILABLE when a reader kept the WAL from being fully checkpointed.
+  Status Checkpoint() override;
+
+  // PRAGMA integrity_check and foreign_key_check: DATA_LOSS with SQLite's findings unless clean.
+  Status IntegrityCheck();
+
+  sqlite::Connection& connection() { return *db_; }  // for tests and maintenance tools
+
+ private:
+  explicit SqliteMapStore(std::unique_ptr<sqlite::Connection> db) : db_(std::move(db)) {}
+
+  // --- checks shared by the methods (NOT_FOUND when the row is absent) ---
+  StatusOr<std::string> MapName(int64_t map_id);
+  Status RequireSession(int64_t session_id);
+  StatusOr<std::vector<SessionInfo>> QuerySessions(const std::string& where,
+                                                   const std::vector<std::string>& args);
+  StatusOr<std::vector<MapInfo>> QueryMaps(const std::string& where, const std::string* name);
+
+  // --- Write, one row kind each (sqlite_map_store_write.cc) ---
+  Status WriteFrame(int64_t session_id, const TrajectoryPose& pose);
+  StatusOr<int64_t> WriteKeyframe(const KeyframeRecord& keyframe);
+  Status WriteLink(const LinkRecord& link);
+  Status WriteBlob(const MapBlob& blob);
+  // The keyframe a link end names, checked to belong to `map_id`.
+  StatusOr<int64_t> ResolveLinkEnd(int64_t map_id, int64_t keyframe_id, int64_t session_id,
+                                   int64_t seq, const char* end);
+
+  std::unique_ptr<sqlite::Connection> db_;
+};
+
+}  // namespace semmap

@@ -1,0 +1,156 @@
+// SqliteMapStore: trajectory, keyframe, link and blob reads.
+#include <algorithm>
+
+#include "common/sha256.h"
+#include "storage/sqlite/row_codec.h"
+#include "storage/sqlite/sqlite_map_store.h"
+
+namespace semmap {
+
+using sqlite::StatementLease;
+
+StatusOr<std::vector<TrajectoryPose>> SqliteMapStore::GetTrajectory(int64_t session_id,
+                                                                    bool keyframes_only) {
+  SEMMAP_RETURN_IF_ERROR(RequireSession(session_id));
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare(keyframes_only
+                       ? "SELECT seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw, is_keyframe"
+                         " FROM frames WHERE session_id = ?1 AND is_keyframe = 1 ORDER BY seq"
+                       : "SELECT seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw, is_keyframe"
+                         " FROM frames WHERE session_id = ?1 ORDER BY seq"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, session_id));
+  std::vector<TrajectoryPose> poses;
+  for (;;) {
+    SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+    if (!row) break;
+    TrajectoryPose& p = poses.emplace_back();
+    p.seq = stmt->ColumnInt64(0);
+    p.stamp_ns = stmt->ColumnInt64(1);
+    p.T_world_camera = sqlite::ReadPose(*stmt, 2);
+    p.is_keyframe = stmt->ColumnInt64(9) != 0;
+  }
+  return poses;
+}
+
+namespace {
+
+// Columns 0..13 of the keyframe queries below; 14 and 15 are the image bytes when selected.
+KeyframeRecord KeyframeFromRow(const sqlite::Statement& stmt, bool with_images) {
+  KeyframeRecord kf;
+  kf.id = stmt.ColumnInt64(0);
+  kf.session_id = stmt.ColumnInt64(1);
+  kf.seq = stmt.ColumnInt64(2);
+  kf.stamp_ns = stmt.ColumnInt64(3);
+  kf.T_world_camera = sqlite::ReadPose(stmt, 4);
+  kf.colour.format = stmt.ColumnText(11);
+  kf.depth.format = stmt.ColumnText(12);
+  kf.depth_scale = stmt.ColumnDouble(13);
+  if (with_images) {
+    kf.colour.bytes = stmt.ColumnBlob(14);
+    kf.depth.bytes = stmt.ColumnBlob(15);
+  }
+  return kf;
+}
+
+}  // namespace
+
+StatusOr<KeyframeRecord> SqliteMapStore::GetKeyframe(int64_t keyframe_id) {
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare("SELECT id, session_id, seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw,"
+                   " colour_format, depth_format, depth_scale, colour, depth"
+                   " FROM keyframes WHERE id = ?1"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, keyframe_id));
+  SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+  if (!row) return NotFoundError("keyframe id " + std::to_string(keyframe_id) + " not found");
+  return KeyframeFromRow(*stmt, /*with_images=*/true);
+}
+
+StatusOr<std::vector<KeyframeRecord>> SqliteMapStore::ListKeyframes(int64_t session_id,
+                                                                    bool with_images) {
+  SEMMAP_RETURN_IF_ERROR(RequireSession(session_id));
+  // Without images the blobs are not even read from disk.
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare(with_images ? "SELECT id, session_id, seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw,"
+                                 " colour_format, depth_format, depth_scale, colour, depth"
+                                 " FROM keyframes WHERE session_id = ?1 ORDER BY seq"
+                               : "SELECT id, session_id, seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw,"
+                                 " colour_format, depth_format, depth_scale"
+                                 " FROM keyframes WHERE session_id = ?1 ORDER BY seq"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, session_id));
+  std::vector<KeyframeRecord> keyframes;
+  for (;;) {
+    SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+    if (!row) break;
+    keyframes.push_back(KeyframeFromRow(*stmt, with_images));
+  }
+  return keyframes;
+}
+
+StatusOr<std::vector<LinkRecord>> SqliteMapStore::ListLinks(int64_t map_id) {
+  SEMMAP_RETURN_IF_ERROR(MapName(map_id).status());
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare("SELECT l.id, l.map_id, l.from_kf, l.to_kf, l.kind,"
+                   " l.tx, l.ty, l.tz, l.qx, l.qy, l.qz, l.qw, l.information,"
+                   " f.session_id, f.seq, t.session_id, t.seq FROM links l"
+                   " JOIN keyframes f ON f.id = l.from_kf JOIN keyframes t ON t.id = l.to_kf"
+                   " WHERE l.map_id = ?1 ORDER BY l.id"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, map_id));
+  std::vector<LinkRecord> links;
+  for (;;) {
+    SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+    if (!row) break;
+    LinkRecord& link = links.emplace_back();
+    link.id = stmt->ColumnInt64(0);
+    link.map_id = stmt->ColumnInt64(1);
+    link.from_keyframe_id = stmt->ColumnInt64(2);
+    link.to_keyframe_id = stmt->ColumnInt64(3);
+    link.kind = static_cast<LinkKind>(stmt->ColumnInt64(4));  // CHECK keeps it a known value
+    link.T_from_to = sqlite::ReadPose(*stmt, 5);
+    StatusOr<sqlite::InformationMatrix> information =
+        sqlite::DecodeInformation(stmt->ColumnBlob(12));
+    if (!information.ok()) {
+      return information.status().WithContext("link id " + std::to_string(link.id));
+    }
+    link.information = *information;
+    link.from_session_id = stmt->ColumnInt64(13);
+    link.from_seq = stmt->ColumnInt64(14);
+    link.to_session_id = stmt->ColumnInt64(15);
+    link.to_seq = stmt->ColumnInt64(16);
+  }
+  return links;
+}
+
+StatusOr<MapBlob> SqliteMapStore::GetBlob(int64_t map_id, const std::string& kind) {
+  SEMMAP_ASSIGN_OR_RETURN(StatementLease stmt,
+                          db_->Prepare("SELECT data, length, sha256, updated_ns FROM blobs"
+                                       " WHERE map_id = ?1 AND kind = ?2"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindAll(map_id, kind));
+  SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+  const std::string name = "map blob '" + kind + "' of map id " + std::to_string(map_id);
+  if (!row) return NotFoundError(name + " not found");
+  MapBlob blob;
+  blob.map_id = map_id;
+  blob.kind = kind;
+  blob.data = stmt->ColumnBlob(0);
+  blob.updated_unix_ns = stmt->ColumnInt64(3);
+  const int64_t length = stmt->ColumnInt64(1);
+  if (static_cast<int64_t>(blob.data.size()) != length) {
+    return DataLossError(name + " is corrupt: stored length " + std::to_string(length) + ", read " +
+                         std::to_string(blob.data.size()) + " bytes");
+  }
+  const std::string stored = stmt->ColumnBlob(2);
+  const Sha256Digest digest = Sha256(blob.data);
+  if (stored.size() != digest.size() ||
+      !std::equal(digest.begin(), digest.end(), stored.begin(),
+                  [](uint8_t a, char b) { return a == static_cast<uint8_t>(b); })) {
+    return DataLossError(name + " is corrupt: its sha256 " + ToHex(digest) +
+                         " does not match the stored checksum");
+  }
+  return blob;
+}
+
+}  // namespace semmap

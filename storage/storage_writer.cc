@@ -1,0 +1,175 @@
+#include "storage/storage_writer.h"
+
+#include <iterator>
+#include <optional>
+#include <string>
+#include <utility>
+
+namespace semmap {
+namespace {
+
+// How many rows of each kind one batch contributed to a merged batch.
+struct BatchShape {
+  size_t frames = 0, keyframes = 0, links = 0, blobs = 0;
+};
+
+BatchShape ShapeOf(const WriteBatch& b) {
+  return {b.frames.size(), b.keyframes.size(), b.links.size(), b.blobs.size()};
+}
+
+template <typename T>
+std::vector<T> TakeRange(std::vector<T>& from, size_t& offset, size_t count) {
+  auto first = from.begin() + static_cast<std::ptrdiff_t>(offset);
+  offset += count;
+  return std::vector<T>(std::make_move_iterator(first),
+                        std::make_move_iterator(first + static_cast<std::ptrdiff_t>(count)));
+}
+
+// Undoes WriteBatch::Append: gives every batch its own rows back, in order.
+std::vector<WriteBatch> Split(WriteBatch&& merged, const std::vector<BatchShape>& shapes) {
+  std::vector<WriteBatch> batches;
+  BatchShape offset;
+  for (const BatchShape& shape : shapes) {
+    WriteBatch& b = batches.emplace_back();
+    b.frames = TakeRange(merged.frames, offset.frames, shape.frames);
+    b.keyframes = TakeRange(merged.keyframes, offset.keyframes, shape.keyframes);
+    b.links = TakeRange(merged.links, offset.links, shape.links);
+    b.blobs = TakeRange(merged.blobs, offset.blobs, shape.blobs);
+  }
+  return batches;
+}
+
+Status CalledFromWriter(const char* what) {
+  return FailedPreconditionError(std::string(what) +
+                                 " called on the storage writer thread (it would deadlock)");
+}
+
+}  // namespace
+
+Status StorageWriter::Options::Validate() const {
+  if (queue_capacity == 0) return InvalidArgumentError("storage queue_capacity must be >= 1");
+  if (max_batch_items == 0) return InvalidArgumentError("storage max_batch_items must be >= 1");
+  return OkStatus();
+}
+
+StatusOr<std::unique_ptr<StorageWriter>> StorageWriter::Start(std::unique_ptr<MapStore> store,
+                                                              Options options) {
+  if (store == nullptr) return InvalidArgumentError("storage writer needs a store");
+  SEMMAP_RETURN_IF_ERROR(options.Validate());
+  std::unique_ptr<StorageWriter> writer(new StorageWriter(std::move(store), options));
+  writer->thread_ = std::thread([w = writer.get()] { w->Run(); });
+  // Nothing reaches the thread before Start returns, so it never reads this id too early.
+  writer->writer_id_ = writer->thread_.get_id();
+  return writer;
+}
+
+StorageWriter::StorageWriter(std::unique_ptr<MapStore> store, Options options)
+    : store_(std::move(store)), options_(options), queue_(options.queue_capacity) {}
+
+StorageWriter::~StorageWriter() {
+  Status ignored = Stop();  // a destructor cannot report; call Stop() first to see errors
+  (void)ignored;
+}
+
+Status StorageWriter::Submit(WriteBatch batch, Done done) {
+  if (OnWriterThread()) return CalledFromWriter("StorageWriter::Submit");
+  if (!queue_.Push(PendingWrite{std::move(batch), std::move(done)})) {
+    return UnavailableError("storage writer is stopped");
+  }
+  return OkStatus();
+}
+
+Status StorageWriter::RunSync(std::function<Status(MapStore&)> fn) {
+  if (OnWriterThread()) return CalledFromWriter("StorageWriter::RunSync");
+  std::promise<Status> promise;
+  std::future<Status> result = promise.get_future();
+  if (!queue_.Push(SyncCall{std::move(fn), std::move(promise)})) {
+    return UnavailableError("storage writer is stopped");
+  }
+  // The thread drains every queued item before it exits, so the promise is always kept.
+  return result.get();
+}
+
+Status StorageWriter::Stop() {
+  if (OnWriterThread()) return CalledFromWriter("StorageWriter::Stop");
+  std::lock_guard lock(stop_mutex_);
+  if (stopped_) return stop_status_;
+  queue_.Shutdown();  // later Submit/RunSync fail; the thread drains what is queued
+  if (thread_.joinable()) thread_.join();
+  stopped_ = true;
+  stop_status_ = drain_status_;
+  return stop_status_;
+}
+
+void StorageWriter::Run() {
+  std::optional<Item> next;
+  for (;;) {
+    if (!next) next = queue_.Pop();
+    if (!next) break;  // shut down and drained
+    Item item = std::move(*next);
+    next.reset();
+    if (auto* call = std::get_if<SyncCall>(&item)) {
+      call->result.set_value(call->fn(*store_));
+      continue;
+    }
+    // Merge whatever else is already waiting: one commit (one fsync) for many batches.
+    std::vector<PendingWrite> group;
+    group.push_back(std::move(std::get<PendingWrite>(item)));
+    while (group.size() < options_.max_batch_items) {
+      std::optional<Item> more = queue_.TryPop();
+      if (!more) break;
+      if (std::holds_alternative<SyncCall>(*more)) {
+        next = std::move(more);  // runs after this group commits: submission order is kept
+        break;
+      }
+      group.push_back(std::move(std::get<PendingWrite>(*more)));
+    }
+    CommitGroup(group);
+  }
+  Status checkpoint = store_->Checkpoint();
+  if (drain_status_.ok() && !checkpoint.ok()) drain_status_ = checkpoint.WithContext("checkpoint");
+}
+
+void StorageWriter::CommitGroup(std::vector<PendingWrite>& group) {
+  if (group.size() == 1) {
+    StatusOr<WriteResult> result = store_->Write(group.front().batch);
+    Finish(group.front(), result.status(), result.ok() ? std::move(result).value() : WriteResult{});
+    return;
+  }
+  std::vector<BatchShape> shapes;
+  WriteBatch merged;
+  for (PendingWrite& write : group) {
+    shapes.push_back(ShapeOf(write.batch));
+    merged.Append(std::move(write.batch));
+  }
+  StatusOr<WriteResult> result = store_->Write(merged);
+  if (result.ok()) {
+    const std::vector<int64_t>& ids = result->keyframe_ids;
+    size_t offset = 0;
+    for (size_t i = 0; i < group.size(); ++i) {
+      WriteResult own;
+      own.keyframe_ids.assign(
+          ids.begin() + static_cast<std::ptrdiff_t>(offset),
+          ids.begin() + static_cast<std::ptrdiff_t>(offset + shapes[i].keyframes));
+      offset += shapes[i].keyframes;
+      Finish(group[i], OkStatus(), std::move(own));
+    }
+    return;
+  }
+  // The merged transaction rolled back as a whole: retry batch by batch, in order, so only the
+  // bad ones fail (and later batches still see the keyframes of earlier good ones).
+  std::vector<WriteBatch> batches = Split(std::move(merged), shapes);
+  for (size_t i = 0; i < group.size(); ++i) {
+    StatusOr<WriteResult> alone = store_->Write(batches[i]);
+    Finish(group[i], alone.status(), alone.ok() ? std::move(alone).value() : WriteResult{});
+  }
+}
+
+void StorageWriter::Finish(PendingWrite& write, const Status& status, WriteResult result) {
+  if (!status.ok() && drain_status_.ok() && queue_.is_shutdown()) {
+    drain_status_ = status.WithContext("storage write during shutdown");
+  }
+  if (write.done) write.done(status, result);
+}
+
+}  // namespace semmap

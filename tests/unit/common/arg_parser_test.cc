@@ -1,0 +1,40 @@
+#include "common/arg_parser.h"
+
+#include <gtest/gtest.h>
+
+namespace semmap {
+namespace {
+
+TEST(ArgParserTest, FlagsSwitchesAndPositionals) {
+  ArgParser p;
+  p.AddFlag("map", "M", "map name");
+  p.AddFlag("rate", "HZ", "rate");
+  p.AddSwitch("json", "json output");
+  const char* argv[] = {"semmap", "ingest", "--map", "lab", "DIR", "--rate=30", "--json"};
+  ASSERT_TRUE(p.Parse(7, argv).ok());
+  EXPECT_EQ(p.Get("map"), "lab");
+  EXPECT_TRUE(p.Has("json"));
+  EXPECT_EQ(*p.GetDouble("rate", 0), 30.0);
+  ASSERT_EQ(p.positional().size(), 2u);
+  EXPECT_EQ(p.positional()[1], "DIR");
+}
+
+TEST(ArgParserTest, Errors) {
+  ArgParser p;
+  p.AddFlag("rate", "HZ", "rate");
+  p.AddSwitch("json", "json");
+  const char* unknown[] = {"x", "--nope"};
+  EXPECT_EQ(p.Parse(2, unknown).code(), StatusCode::kInvalidArgument);
+  ArgParser q;
+  q.AddFlag("rate", "HZ", "rate");
+  const char* missing[] = {"x", "--rate"};
+  EXPECT_EQ(q.Parse(2, missing).code(), StatusCode::kInvalidArgument);
+  ArgParser r;
+  r.AddFlag("rate", "HZ", "rate");
+  const char* bad[] = {"x", "--rate", "fast"};
+  ASSERT_TRUE(r.Parse(3, bad).ok());
+  EXPECT_FALSE(r.GetDouble("rate", 0).ok());
+}
+
+}  // namespace
+}  // namespace semmap

@@ -1,0 +1,134 @@
+// Schema migrations: applied once, idempotent on reopen, newer schemas refused.
+#include "storage/sqlite/migrations.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "storage/sqlite/sqlite_map_store.h"
+#include "tests/unit/storage/storage_test_util.h"
+
+namespace semmap::sqlite {
+namespace {
+
+using storage_test::TempDir;
+
+std::unique_ptr<Connection> Open(const std::string& path) {
+  auto db = Connection::Open(path, {});
+  EXPECT_TRUE(db.ok()) << db.status().ToString();
+  return db.ok() ? std::move(db).value() : nullptr;
+}
+
+// Step 2 counts how often it ran: an INSERT that would repeat if the step ran twice.
+constexpr Migration kTwoSteps[] = {
+    {1, "log table", "CREATE TABLE log (what TEXT NOT NULL)"},
+    {2, "first entry", "INSERT INTO log VALUES ('step 2')"},
+};
+
+TEST(MigrationsTest, AppliesEveryStepOnceAndIsIdempotent) {
+  TempDir dir;
+  {
+    auto db = Open(dir.File("m.db"));
+    ASSERT_NE(db, nullptr);
+    EXPECT_EQ(*ReadSchemaVersion(*db), 0);
+    ASSERT_OK(ApplyMigrations(*db, kTwoSteps));
+    EXPECT_EQ(*ReadSchemaVersion(*db), 2);
+    ASSERT_OK(ApplyMigrations(*db, kTwoSteps));  // same connection: nothing to do
+    EXPECT_EQ(*db->QueryInt64("SELECT COUNT(*) FROM log"), 1);
+  }
+  auto reopened = Open(dir.File("m.db"));
+  ASSERT_NE(reopened, nullptr);
+  ASSERT_OK(ApplyMigrations(*reopened, kTwoSteps));
+  EXPECT_EQ(*reopened->QueryInt64("SELECT COUNT(*) FROM log"), 1);
+  EXPECT_EQ(*ReadSchemaVersion(*reopened), 2);
+}
+
+TEST(MigrationsTest, OnlyNewStepsRunOnUpgrade) {
+  TempDir dir;
+  auto db = Open(dir.File("m.db"));
+  ASSERT_NE(db, nullptr);
+  ASSERT_OK(ApplyMigrations(*db, std::span(kTwoSteps).first(1)));
+  EXPECT_EQ(*ReadSchemaVersion(*db), 1);
+  EXPECT_EQ(*db->QueryInt64("SELECT COUNT(*) FROM log"), 0);
+  ASSERT_OK(ApplyMigrations(*db, kTwoSteps));
+  EXPECT_EQ(*ReadSchemaVersion(*db), 2);
+  EXPECT_EQ(*db->QueryInt64("SELECT COUNT(*) FROM log"), 1);
+}
+
+TEST(MigrationsTest, FailingStepLeavesTheDatabaseUntouched) {
+  TempDir dir;
+  auto db = Open(dir.File("m.db"));
+  ASSERT_NE(db, nullptr);
+  constexpr Migration kBroken[] = {
+      {1, "log table", "CREATE TABLE log (what TEXT NOT NULL)"},
+      {2, "broken", "INSERT INTO nowhere VALUES (1)"},
+  };
+  Status status = ApplyMigrations(*db, kBroken);
+  ASSERT_FALSE(status.ok());
+  EXPECT_NE(status.message().find("schema migration 2 (broken)"), std::string::npos)
+      << status.message();
+  EXPECT_NE(status.message().find("no such table: nowhere"), std::string::npos);
+  // Step 1 ran in the same transaction and was rolled back with it.
+  EXPECT_EQ(*ReadSchemaVersion(*db), 0);
+  EXPECT_EQ(*db->QueryInt64("SELECT COUNT(*) FROM sqlite_schema WHERE name = 'log'"), 0);
+  EXPECT_FALSE(db->in_transaction());
+}
+
+TEST(MigrationsTest, NewerSchemaIsRefused) {
+  TempDir dir;
+  auto db = Open(dir.File("m.db"));
+  ASSERT_NE(db, nullptr);
+  ASSERT_OK(db->Exec("PRAGMA user_version = 7"));
+  Status status = ApplyMigrations(*db, kTwoSteps);
+  EXPECT_EQ(status.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(status.message(),
+            "database schema version 7 is newer than this semmapd supports (2); upgrade semmapd");
+  EXPECT_EQ(*ReadSchemaVersion(*db), 7);  // left alone
+}
+
+TEST(MigrationsTest, StepsMustBeNumberedWithoutGaps) {
+  TempDir dir;
+  auto db = Open(dir.File("m.db"));
+  ASSERT_NE(db, nullptr);
+  constexpr Migration kGap[] = {{1, "a", "SELECT 1"}, {3, "c", "SELECT 1"}};
+  EXPECT_EQ(ApplyMigrations(*db, kGap).code(), StatusCode::kInternal);
+  EXPECT_EQ(*ReadSchemaVersion(*db), 0);
+}
+
+TEST(MigrationsTest, ShippedSchemaIsNumberedAndCurrent) {
+  const auto steps = SchemaMigrations();
+  ASSERT_FALSE(steps.empty());
+  for (size_t i = 0; i < steps.size(); ++i) EXPECT_EQ(steps[i].version, static_cast<int>(i) + 1);
+  EXPECT_EQ(LatestSchemaVersion(), steps.back().version);
+}
+
+TEST(MigrationsTest, StoreOpenMigratesOnceAndRefusesNewerSchema) {
+  TempDir dir;
+  const std::string path = dir.File("semmap.db");
+  {
+    auto store = SqliteMapStore::Open(path, {});
+    ASSERT_OK(store.status());
+    EXPECT_EQ(*ReadSchemaVersion((*store)->connection()), LatestSchemaVersion());
+    ASSERT_OK((*store)->GetOrCreateMap("kept").status());
+  }
+  {
+    auto store = SqliteMapStore::Open(path, {});  // reopen: no step runs again
+    ASSERT_OK(store.status());
+    EXPECT_EQ((*store)->ListMaps()->size(), 1u);
+    ASSERT_OK((*store)->connection().Exec("PRAGMA user_version = " +
+                                          std::to_string(LatestSchemaVersion() + 1)));
+  }
+  auto refused = SqliteMapStore::Open(path, {});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().code(), StatusCode::kFailedPrecondition);
+  const std::string expected = "database schema version " +
+                               std::to_string(LatestSchemaVersion() + 1) +
+                               " is newer than this semmapd supports (" +
+                               std::to_string(LatestSchemaVersion()) + "); upgrade semmapd";
+  EXPECT_NE(refused.status().message().find(expected), std::string::npos)
+      << refused.status().message();
+  EXPECT_NE(refused.status().message().find(path), std::string::npos);
+}
+
+}  // namespace
+}  // namespace semmap::sqlite
