@@ -1,5 +1,6 @@
 #include "common/arg_parser.h"
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -21,22 +22,27 @@ Status ArgParser::Parse(int argc, const char* const* argv, int first) {
   bool only_positional = false;
   for (int i = first; i < argc; ++i) {
     std::string arg = argv[i];
-    if (only_positional || arg.size() < 3 || arg.rfind("--", 0) != 0) {
-      if (arg == "--") {
+    // Single-letter flags are written "-o"; longer ones "--name".
+    const bool short_flag =
+        arg.size() == 2 && arg[0] == '-' && std::isalpha(static_cast<unsigned char>(arg[1]));
+    if (only_positional || (!short_flag && (arg.size() < 3 || arg.rfind("--", 0) != 0))) {
+      if (arg == "--" && !only_positional) {
         only_positional = true;
         continue;
       }
       positional_.push_back(arg);
       continue;
     }
-    std::string name = arg.substr(2);
+    std::string name = short_flag ? arg.substr(1) : arg.substr(2);
     std::optional<std::string> value;
     if (const size_t eq = name.find('='); eq != std::string::npos) {
       value = name.substr(eq + 1);
       name = name.substr(0, eq);
     }
     auto spec = specs_.find(name);
-    if (spec == specs_.end()) return InvalidArgumentError("unknown option --" + name);
+    if (spec == specs_.end() || short_flag != (name.size() == 1)) {
+      return InvalidArgumentError("unknown option " + arg);
+    }
     if (spec->second.value_name.empty()) {
       if (value) return InvalidArgumentError("--" + name + " takes no value");
       values_.emplace(name, "true");
@@ -94,7 +100,8 @@ std::string ArgParser::Usage() const {
   std::string out;
   for (const std::string& name : order_) {
     const Spec& spec = specs_.at(name);
-    std::string left = "  --" + name + (spec.value_name.empty() ? "" : " " + spec.value_name);
+    std::string left = std::string(name.size() == 1 ? "  -" : "  --") + name +
+                       (spec.value_name.empty() ? "" : " " + spec.value_name);
     if (left.size() < 28)
       left.resize(28, ' ');
     else

@@ -1,5 +1,6 @@
 // Minimal command-line parsing for semmapd and the semmap CLI: declared flags only (unknown
-// flags are errors), "--name value" or "--name=value", boolean switches, positional arguments.
+// flags are errors), "--name value" or "--name=value" ("-x value" for one-letter names), boolean
+// switches, positional arguments.
 #pragma once
 
 #include <map>

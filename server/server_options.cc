@@ -5,8 +5,14 @@
 namespace semmap {
 
 Status ServerOptions::Validate() const {
-  if (listen.empty() || listen.find(':') == std::string::npos) {
+  const size_t colon = listen.rfind(':');
+  if (listen.empty() || colon == std::string::npos || colon == 0) {
     return InvalidArgumentError("--listen must be HOST:PORT (got '" + listen + "')");
+  }
+  const std::string port = listen.substr(colon + 1);
+  if (port.empty() || port.size() > 5 ||
+      port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) > 65535) {
+    return InvalidArgumentError("--listen port must be a number in 0..65535 (got '" + port + "')");
   }
   if (data_dir.empty()) return InvalidArgumentError("--data-dir must not be empty");
   if (max_message_mb < 1 || max_message_mb > 1024) {

@@ -72,6 +72,20 @@ TEST(TeddyE2ETest, KnownPosesSessionSurvivesRestart) {
   EXPECT_EQ(stored_keyframes, keyframes);
   EXPECT_EQ(poses[0]["stamp"], "1341841873.273798");
 
+  // Export through the CLI: the file holds the full trajectory and the client checked its sha256.
+  out.clear();
+  const std::string exported = dir.File("teddy.tum");
+  ASSERT_EQ(RunCommand({SemmapCliPath(), "--server", server.address(), "--json", "export", "--map",
+                        "teddy", "--format", "tum", "-o", exported},
+                       &out),
+            0)
+      << out;
+  EXPECT_EQ(nlohmann::json::parse(out)["sha256"].get<std::string>().size(), 64u);
+  std::ifstream tum(exported);
+  int tum_lines = 0;
+  for (std::string line; std::getline(tum, line);) tum_lines += !line.empty() && line[0] != '#';
+  EXPECT_EQ(tum_lines, 200);
+
   out.clear();
   EXPECT_EQ(RunCommand({SemmapCliPath(), "--server", server.address(), "trajectory", "--map",
                         "teddy", "--session", "missing"},

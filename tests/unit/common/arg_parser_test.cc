@@ -19,6 +19,25 @@ TEST(ArgParserTest, FlagsSwitchesAndPositionals) {
   EXPECT_EQ(p.positional()[1], "DIR");
 }
 
+TEST(ArgParserTest, ShortFlags) {
+  ArgParser p;
+  p.AddFlag("o", "FILE", "output");
+  p.AddFlag("map", "M", "map");
+  const char* argv[] = {"x", "-o", "out.txt", "--map", "m", "-"};
+  ASSERT_TRUE(p.Parse(6, argv).ok());
+  EXPECT_EQ(p.Get("o"), "out.txt");
+  ASSERT_EQ(p.positional().size(), 1u);  // a lone "-" (stdin) stays positional
+  EXPECT_NE(p.Usage().find("  -o FILE"), std::string::npos);
+  const char* long_o[] = {"x", "--o", "f"};
+  ArgParser q;
+  q.AddFlag("o", "FILE", "output");
+  EXPECT_FALSE(q.Parse(3, long_o).ok());
+  const char* short_map[] = {"x", "-m", "f"};
+  ArgParser r;
+  r.AddFlag("map", "M", "map");
+  EXPECT_FALSE(r.Parse(3, short_map).ok());
+}
+
 TEST(ArgParserTest, Errors) {
   ArgParser p;
   p.AddFlag("rate", "HZ", "rate");
