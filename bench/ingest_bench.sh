@@ -29,12 +29,9 @@ rss_before=$(awk '/VmRSS/ {print $2}' /proc/$pid/status)
 for i in $(seq 1 "$REPEATS"); do
   json=$("$SEMMAP" --server "$addr" --json ingest "$DATASET" --poses groundtruth.txt \
            --map bench --session "run$i")
-  python3 - "$json" <<'PY'
-import json, sys
-r = json.loads(sys.argv[1])
-print(f"run {r['session']}: {r['frames_stored']} frames, {r['keyframes']} keyframes, "
-      f"{r['seconds']:.2f} s, {r['frames_per_second']:.1f} frames/s")
-PY
+  jq -r '"run \(.session): \(.frames_stored) frames, \(.keyframes) keyframes, " +
+         "\(.seconds * 100 | round / 100) s, \(.frames_per_second * 10 | round / 10) frames/s"' \
+    <<<"$json"
 done
 peak_kb=$(awk '/VmHWM/ {print $2}' /proc/$pid/status)
 rss_kb=$(awk '/VmRSS/ {print $2}' /proc/$pid/status)

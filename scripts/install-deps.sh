@@ -14,8 +14,8 @@ PACKAGES=(
   libsqlite3-dev libssl-dev nlohmann-json3-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
-  # e2e helpers (process control)
-  procps
+  # scripts: process control, JSON in bench scripts
+  procps jq
 )
 
 missing=()

@@ -198,6 +198,14 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
     out["durable_seq"] = summary->has_durable_seq() ? nlohmann::json(summary->durable_seq())
                                                     : nlohmann::json(nullptr);
     if (!args.trajectory_out.empty()) out["trajectory_out"] = args.trajectory_out;
+    out["stages"] = nlohmann::json::object();
+    for (const v1::StageLatency& stage : summary->stages()) {
+      out["stages"][stage.name()] = {{"count", stage.count()},
+                                     {"p50_ms", stage.p50_ms()},
+                                     {"p95_ms", stage.p95_ms()},
+                                     {"max_ms", stage.max_ms()},
+                                     {"mean_ms", stage.mean_ms()}};
+    }
     PrintJson(out);
   } else {
     std::cout << "stored " << summary->frames() << " frames (" << summary->keyframes()
@@ -209,6 +217,13 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
     }
     if (!args.trajectory_out.empty()) {
       std::cout << "wrote the pose of every frame to " << args.trajectory_out << "\n";
+    }
+    std::cout << "server latency (ms)        p50      p95      max\n";
+    for (const v1::StageLatency& stage : summary->stages()) {
+      if (stage.count() == 0) continue;
+      std::cout << "  " << std::left << std::setw(20) << stage.name() << std::right
+                << std::setprecision(2) << std::setw(9) << stage.p50_ms() << std::setw(9)
+                << stage.p95_ms() << std::setw(9) << stage.max_ms() << "\n";
     }
   }
   return kExitOk;

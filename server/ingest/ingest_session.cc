@@ -12,6 +12,12 @@
 namespace semmap {
 namespace {
 
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
 constexpr int kStopCancelled = 1;
 constexpr int kStopServer = 2;
 
@@ -183,8 +189,12 @@ StatusOr<DecodedFrame> IngestSession::Decode(IngestFrame& frame) const {
 }
 
 Status IngestSession::HandleFrame(IngestFrame& frame) {
+  const Clock::time_point t0 = Clock::now();
   SEMMAP_ASSIGN_OR_RETURN(DecodedFrame decoded, Decode(frame));
+  decode_ms_.Add(MsSince(t0));
+  const Clock::time_point t1 = Clock::now();
   SEMMAP_ASSIGN_OR_RETURN(FrameEstimate estimate, processor_->Process(decoded));
+  tracking_ms_.Add(MsSince(t1));
   last_seq_ = frame.seq;
   SEMMAP_RETURN_IF_ERROR(SubmitFrame(decoded, frame, estimate));
   ++frames_;
@@ -196,6 +206,7 @@ Status IngestSession::HandleFrame(IngestFrame& frame) {
   ack.is_keyframe = estimate.is_keyframe;
   ack.durable_seq = durable_seq();
   sink_->OnAck(ack);
+  frame_ms_.Add(MsSince(t0));
   return OkStatus();
 }
 
@@ -210,6 +221,7 @@ Status IngestSession::SubmitFrame(const DecodedFrame& frame, const IngestFrame& 
   batch.frames.emplace_back(session_->id, pose);
 
   if (estimate.is_keyframe) {
+    const Clock::time_point t0 = Clock::now();
     KeyframeRecord kf;
     kf.session_id = session_->id;
     kf.seq = pose.seq;
@@ -235,6 +247,7 @@ Status IngestSession::SubmitFrame(const DecodedFrame& frame, const IngestFrame& 
     }
     last_keyframe_seq_ = frame.seq;
     last_keyframe_pose_ = estimate.T_world_camera;
+    keyframe_ms_.Add(MsSince(t0));
   }
 
   {
@@ -242,9 +255,11 @@ Status IngestSession::SubmitFrame(const DecodedFrame& frame, const IngestFrame& 
     ++pending_writes_;
   }
   const uint64_t seq = frame.seq;
+  const Clock::time_point submitted_at = Clock::now();
   Status submitted = writer_->Submit(
-      std::move(batch),
-      [this, seq](const Status& status, const WriteResult&) { OnCommitted(status, seq); });
+      std::move(batch), [this, seq, submitted_at](const Status& status, const WriteResult&) {
+        OnCommitted(status, seq, submitted_at);
+      });
   if (!submitted.ok()) {
     std::lock_guard lock(commit_mutex_);
     --pending_writes_;
@@ -254,10 +269,12 @@ Status IngestSession::SubmitFrame(const DecodedFrame& frame, const IngestFrame& 
   return OkStatus();
 }
 
-void IngestSession::OnCommitted(const Status& status, uint64_t seq) {
+void IngestSession::OnCommitted(const Status& status, uint64_t seq,
+                                Clock::time_point submitted_at) {
   IngestProgressInfo progress;
   {
     std::lock_guard lock(commit_mutex_);
+    storage_commit_ms_.Add(MsSince(submitted_at));
     --pending_writes_;
     if (status.ok()) {
       if (!durable_seq_ || seq > *durable_seq_) durable_seq_ = seq;
@@ -301,6 +318,12 @@ void IngestSession::Finish(Status status) {
   summary.durable_seq = durable_seq();
   summary.duration_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started_at_).count();
+  summary.stages = {decode_ms_.Summarize(), tracking_ms_.Summarize(), keyframe_ms_.Summarize()};
+  {
+    std::lock_guard lock(commit_mutex_);
+    summary.stages.push_back(storage_commit_ms_.Summarize());
+  }
+  summary.stages.push_back(frame_ms_.Summarize());
   if (!status.ok() && summary.durable_seq) {
     status = Status(status.code(), status.message() + " (frames up to seq " +
                                        std::to_string(*summary.durable_seq) + " are stored)");

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "common/bounded_queue.h"
+#include "common/latency_stats.h"
 #include "server/ingest/frame_processor.h"
 #include "server/ingest/ingest_options.h"
 #include "server/ingest/ingest_types.h"
@@ -43,7 +44,8 @@ class IngestSession {
   StatusOr<DecodedFrame> Decode(IngestFrame& frame) const;
   Status SubmitFrame(const DecodedFrame& frame, const IngestFrame& wire,
                      const FrameEstimate& estimate);
-  void OnCommitted(const Status& status, uint64_t seq);
+  void OnCommitted(const Status& status, uint64_t seq,
+                   std::chrono::steady_clock::time_point submitted_at);
   void Finish(Status status);
   std::optional<uint64_t> durable_seq() const;
 
@@ -60,6 +62,11 @@ class IngestSession {
   Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
   bool ended_ = false;
   std::chrono::steady_clock::time_point started_at_;
+  // Worker-thread stage timings (storage_commit_ms_ is guarded by commit_mutex_).
+  LatencyStats decode_ms_{"decode"};
+  LatencyStats tracking_ms_{"tracking"};
+  LatencyStats keyframe_ms_{"keyframe"};
+  LatencyStats frame_ms_{"frame"};
 
   // Shared with the writer thread's commit callbacks.
   mutable std::mutex commit_mutex_;
@@ -67,6 +74,7 @@ class IngestSession {
   size_t pending_writes_ = 0;
   std::optional<uint64_t> durable_seq_;
   Status write_error_;
+  LatencyStats storage_commit_ms_{"storage_commit"};
 
   std::atomic<uint64_t> received_{0};
   std::atomic<uint64_t> frames_{0};  // read by commit callbacks for progress

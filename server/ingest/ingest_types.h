@@ -7,8 +7,10 @@
 #include <optional>
 #include <string>
 #include <variant>
+#include <vector>
 
 #include "common/camera.h"
+#include "common/latency_stats.h"
 #include "common/map_types.h"
 #include "common/pose.h"
 #include "common/status.h"
@@ -67,6 +69,8 @@ struct IngestSummaryInfo {
   uint64_t keyframes = 0;
   std::optional<uint64_t> durable_seq;
   double duration_s = 0;
+  // Per-stage latency inside the server: decode, tracking, keyframe, storage_commit, frame.
+  std::vector<LatencySummary> stages;
 };
 
 // How a session reports back. Calls come from the session's worker thread and the storage

@@ -108,6 +108,15 @@ void ToProto(const IngestSummaryInfo& s, v1::IngestSummary* out) {
   out->set_keyframes(s.keyframes);
   if (s.durable_seq) out->set_durable_seq(*s.durable_seq);
   out->set_duration_s(s.duration_s);
+  for (const LatencySummary& stage : s.stages) {
+    v1::StageLatency* wire = out->add_stages();
+    wire->set_name(stage.name);
+    wire->set_count(stage.count);
+    wire->set_p50_ms(stage.p50_ms);
+    wire->set_p95_ms(stage.p95_ms);
+    wire->set_max_ms(stage.max_ms);
+    wire->set_mean_ms(stage.mean_ms);
+  }
 }
 
 }  // namespace semmap
