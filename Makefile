@@ -23,8 +23,12 @@ test-asan: deps
 	cmake --build --preset asan -j $(JOBS)
 	ctest --preset asan -j 2
 
+# Figures, not pass/fail: dataset harness (teddy, or the bundled sample) and micro-benchmarks.
 bench: build
-	bash bench/ingest_bench.sh
+	bash bench/run_dataset.sh $(if $(wildcard ../shared/data/tum_fr3_teddy_200),../shared/data/tum_fr3_teddy_200,data/samples/tum_fr3_teddy_80) --poses groundtruth.txt
+	build/release/bench/decode_bench
+	build/release/bench/eval_bench
+	build/release/bench/synth_bench
 
 format:
 	git ls-files '*.cc' '*.h' | xargs clang-format -i

@@ -37,17 +37,12 @@ done
 OUT=${OUT:-$(mktemp -d -t semmap-bench-XXXXXX)}
 mkdir -p "$OUT"
 data_dir=$(mktemp -d -t semmap-bench-db-XXXXXX)
-trap 'kill -KILL $pid 2>/dev/null || true; rm -rf "$data_dir"' EXIT
-
-"$SEMMAPD" --listen 127.0.0.1:0 --data-dir "$data_dir" >"$data_dir/out" 2>"$data_dir/log" &
-pid=$!
-addr=""
-for _ in $(seq 1 100); do
-  addr=$(sed -n 's/^semmapd: listening on //p' "$data_dir/out" | head -n1)
-  [ -n "$addr" ] && break
-  sleep 0.1
-done
-[ -n "$addr" ] || { echo "run_dataset: semmapd did not start" >&2; cat "$data_dir/log" >&2; exit 1; }
+pid=""
+trap '[ -n "$pid" ] && kill -KILL $pid 2>/dev/null; rm -rf "$data_dir"' EXIT
+source scripts/semmapd_lib.sh
+start_semmapd "$SEMMAPD" "$data_dir"
+pid=$SEMMAPD_PID
+addr=$SEMMAPD_ADDR
 
 ingest_args=(--server "$addr" --json ingest "$DATASET" --map bench --session run
              --trajectory-out "$OUT/estimate.txt" "${MODE_ARGS[@]}")

@@ -14,23 +14,12 @@ for bin in "$SEMMAPD" "$SEMMAP"; do
   [ -x "$bin" ] || { echo "demo: $bin is missing; run 'make build' first" >&2; exit 1; }
 done
 
-log="$DATA_DIR/semmapd.log"
-"$SEMMAPD" --listen 127.0.0.1:0 --data-dir "$DATA_DIR" >"$log.out" 2>"$log" &
-server_pid=$!
-cleanup() { kill -KILL "$server_pid" 2>/dev/null || true; }
-trap cleanup EXIT
-
-# The server prints "semmapd: listening on HOST:PORT" once it serves.
-address=""
-for _ in $(seq 1 100); do
-  address=$(sed -n 's/^semmapd: listening on //p' "$log.out" 2>/dev/null | head -n1)
-  [ -n "$address" ] && break
-  kill -0 "$server_pid" 2>/dev/null || { cat "$log" >&2; exit 1; }
-  sleep 0.1
-done
-[ -n "$address" ] || { echo "demo: semmapd did not start" >&2; cat "$log" >&2; exit 1; }
-export SEMMAP_SERVER="$address"
-echo "== semmapd serving on $address, data in $DATA_DIR"
+source "$(dirname "$0")/semmapd_lib.sh"
+start_semmapd "$SEMMAPD" "$DATA_DIR"
+server_pid=$SEMMAPD_PID
+trap 'kill -KILL "$server_pid" 2>/dev/null || true' EXIT
+export SEMMAP_SERVER="$SEMMAPD_ADDR"
+echo "== semmapd serving on $SEMMAPD_ADDR, data in $DATA_DIR"
 "$SEMMAP" health
 
 echo "== streaming $SAMPLE (known poses from its ground truth)"

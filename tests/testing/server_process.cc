@@ -18,6 +18,29 @@ std::vector<char*> Argv(const std::vector<std::string>& args) {
   return out;
 }
 
+// Starts argv with its stdout on a pipe; returns the child's pid (-1 on failure).
+pid_t SpawnWithStdoutPipe(const std::vector<std::string>& args, int* stdout_fd) {
+  int out[2];
+  if (::pipe(out) != 0) return -1;
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    ::close(out[0]);
+    ::close(out[1]);
+    return -1;
+  }
+  if (pid == 0) {
+    ::dup2(out[1], STDOUT_FILENO);
+    ::close(out[0]);
+    ::close(out[1]);
+    auto argv = Argv(args);
+    ::execv(argv[0], argv.data());
+    std::_Exit(127);
+  }
+  ::close(out[1]);
+  *stdout_fd = out[0];
+  return pid;
+}
+
 int WaitExit(pid_t pid) {
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
@@ -38,24 +61,11 @@ ServerProcess::~ServerProcess() {
 
 Status ServerProcess::Start(const std::string& data_dir,
                             const std::vector<std::string>& extra_flags) {
-  int out[2];
-  if (::pipe(out) != 0) return InternalError("pipe failed");
   std::vector<std::string> args = {SemmapdPath(), "--listen", "127.0.0.1:0", "--data-dir",
                                    data_dir};
   args.insert(args.end(), extra_flags.begin(), extra_flags.end());
-  const pid_t pid = ::fork();
-  if (pid < 0) return InternalError("fork failed");
-  if (pid == 0) {
-    ::dup2(out[1], STDOUT_FILENO);
-    ::close(out[0]);
-    ::close(out[1]);
-    auto argv = Argv(args);
-    ::execv(argv[0], argv.data());
-    std::_Exit(127);
-  }
-  ::close(out[1]);
-  pid_ = pid;
-  stdout_fd_ = out[0];
+  pid_ = SpawnWithStdoutPipe(args, &stdout_fd_);
+  if (pid_ < 0) return InternalError("could not start " + args[0]);
   // Read until "semmapd: listening on HOST:PORT\n" (or 30 s, or the child dies).
   std::string text;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
@@ -89,25 +99,15 @@ int ServerProcess::Stop(int signal) {
 }
 
 int RunCommand(const std::vector<std::string>& args, std::string* stdout_text) {
-  int out[2];
-  if (::pipe(out) != 0) return -1;
-  const pid_t pid = ::fork();
+  int out = -1;
+  const pid_t pid = SpawnWithStdoutPipe(args, &out);
   if (pid < 0) return -1;
-  if (pid == 0) {
-    ::dup2(out[1], STDOUT_FILENO);
-    ::close(out[0]);
-    ::close(out[1]);
-    auto argv = Argv(args);
-    ::execv(argv[0], argv.data());
-    std::_Exit(127);
-  }
-  ::close(out[1]);
   char buf[4096];
   ssize_t n;
-  while ((n = ::read(out[0], buf, sizeof(buf))) > 0) {
+  while ((n = ::read(out, buf, sizeof(buf))) > 0) {
     if (stdout_text) stdout_text->append(buf, static_cast<size_t>(n));
   }
-  ::close(out[0]);
+  ::close(out);
   return WaitExit(pid);
 }
 

@@ -1,0 +1,19 @@
+# Sourced by scripts that run a throw-away semmapd (demo, benchmarks).
+# start_semmapd SEMMAPD DATA_DIR: starts it on an ephemeral loopback port and waits until it
+# prints its address; sets SEMMAPD_PID and SEMMAPD_ADDR. Logs go to DATA_DIR/semmapd.log.
+start_semmapd() {
+  local bin=$1 data_dir=$2
+  "$bin" --listen 127.0.0.1:0 --data-dir "$data_dir" >"$data_dir/semmapd.out" \
+    2>"$data_dir/semmapd.log" &
+  SEMMAPD_PID=$!
+  SEMMAPD_ADDR=""
+  for _ in $(seq 1 100); do
+    SEMMAPD_ADDR=$(sed -n 's/^semmapd: listening on //p' "$data_dir/semmapd.out" | head -n1)
+    [ -n "$SEMMAPD_ADDR" ] && return 0
+    kill -0 "$SEMMAPD_PID" 2>/dev/null || break
+    sleep 0.1
+  done
+  echo "semmapd did not start:" >&2
+  cat "$data_dir/semmapd.log" >&2
+  return 1
+}
