@@ -21,9 +21,18 @@ struct CliContext {
   bool json = false;
 };
 
-// Adds --server and --json so they work before or after the subcommand.
-void AddCommonFlags(ArgParser& parser);
+// Adds --json and --help, and --server for commands that talk to semmapd, so they work
+// before or after the subcommand.
+void AddCommonFlags(ArgParser& parser, bool uses_server = true);
 void ApplyCommonFlags(const ArgParser& parser, CliContext* context);
+
+// Parses a subcommand's argv (after its name) with the parser's own flags plus the common ones,
+// prints help or a usage error, and checks the number of positional arguments.
+// Returns -1 to go on, otherwise the exit code to return.
+int ParseSubcommand(ArgParser& parser, CliContext* context, int argc, const char* const* argv,
+                    const std::string& usage, size_t min_positional, size_t max_positional,
+                    bool uses_server = true,
+                    const std::string& positional_error = "wrong number of arguments");
 
 // Prints "semmap: CODE: message" to stderr and returns kExitError.
 int ReportError(const Status& status);

@@ -9,34 +9,12 @@
 #include "common/time_util.h"
 
 namespace semmap::cli {
-namespace {
-
-// Parses argv with the common flags plus the command's own; handles --help and usage errors.
-// Returns -1 to continue, otherwise the exit code.
-int ParseCommand(ArgParser& parser, CliContext* context, int argc, const char* const* argv,
-                 const std::string& usage, size_t min_positional, size_t max_positional) {
-  AddCommonFlags(parser);
-  const std::string full_usage = usage + "\noptions:\n" + parser.Usage();
-  Status parsed = parser.Parse(argc, argv, 0);
-  if (!parsed.ok()) return ReportUsage(parsed.message(), full_usage);
-  if (parser.Has("help")) {
-    std::cout << full_usage;
-    return kExitOk;
-  }
-  const size_t n = parser.positional().size();
-  if (n < min_positional || n > max_positional) {
-    return ReportUsage("wrong number of arguments", full_usage);
-  }
-  ApplyCommonFlags(parser, context);
-  return -1;
-}
-
-}  // namespace
 
 int RunHealth(CliContext context, int argc, const char* const* argv) {
   ArgParser parser;
-  if (int rc = ParseCommand(parser, &context, argc, argv,
-                            "usage: semmap health\n  Asks semmapd whether it is serving.\n", 0, 0);
+  if (int rc =
+          ParseSubcommand(parser, &context, argc, argv,
+                          "usage: semmap health\n  Asks semmapd whether it is serving.\n", 0, 0);
       rc >= 0) {
     return rc;
   }
@@ -53,8 +31,8 @@ int RunHealth(CliContext context, int argc, const char* const* argv) {
 
 int RunMaps(CliContext context, int argc, const char* const* argv) {
   ArgParser parser;
-  if (int rc =
-          ParseCommand(parser, &context, argc, argv, "usage: semmap maps\n  Lists maps.\n", 0, 0);
+  if (int rc = ParseSubcommand(parser, &context, argc, argv, "usage: semmap maps\n  Lists maps.\n",
+                               0, 0);
       rc >= 0) {
     return rc;
   }
@@ -79,8 +57,9 @@ int RunMaps(CliContext context, int argc, const char* const* argv) {
 int RunSessions(CliContext context, int argc, const char* const* argv) {
   ArgParser parser;
   parser.AddFlag("map", "M", "only this map's sessions");
-  if (int rc = ParseCommand(parser, &context, argc, argv,
-                            "usage: semmap sessions [--map M]\n  Lists mapping sessions.\n", 0, 0);
+  if (int rc =
+          ParseSubcommand(parser, &context, argc, argv,
+                          "usage: semmap sessions [--map M]\n  Lists mapping sessions.\n", 0, 0);
       rc >= 0) {
     return rc;
   }
@@ -109,10 +88,10 @@ int RunTrajectory(CliContext context, int argc, const char* const* argv) {
   parser.AddFlag("session", "S", "session name (required)");
   parser.AddFlag("o", "FILE", "write TUM format to FILE instead of stdout");
   parser.AddSwitch("keyframes", "only keyframes");
-  if (int rc = ParseCommand(parser, &context, argc, argv,
-                            "usage: semmap trajectory --map M --session S [-o FILE]\n"
-                            "  Prints a session's poses (T_world_camera) in TUM format.\n",
-                            0, 0);
+  if (int rc = ParseSubcommand(parser, &context, argc, argv,
+                               "usage: semmap trajectory --map M --session S [-o FILE]\n"
+                               "  Prints a session's poses (T_world_camera) in TUM format.\n",
+                               0, 0);
       rc >= 0) {
     return rc;
   }
@@ -161,10 +140,10 @@ int RunExport(CliContext context, int argc, const char* const* argv) {
   parser.AddFlag("format", "F", "tum (one session's trajectory) or json (map summary)");
   parser.AddFlag("session", "S", "only this session");
   parser.AddFlag("o", "FILE", "output file (required)");
-  if (int rc = ParseCommand(parser, &context, argc, argv,
-                            "usage: semmap export --map M --format F -o FILE [--session S]\n"
-                            "  Downloads a map product; its SHA-256 is checked.\n",
-                            0, 0);
+  if (int rc = ParseSubcommand(parser, &context, argc, argv,
+                               "usage: semmap export --map M --format F -o FILE [--session S]\n"
+                               "  Downloads a map product; its SHA-256 is checked.\n",
+                               0, 0);
       rc >= 0) {
     return rc;
   }

@@ -11,5 +11,6 @@ int RunMaps(CliContext context, int argc, const char* const* argv);
 int RunSessions(CliContext context, int argc, const char* const* argv);
 int RunTrajectory(CliContext context, int argc, const char* const* argv);
 int RunExport(CliContext context, int argc, const char* const* argv);
+int RunEval(CliContext context, int argc, const char* const* argv);
 
 }  // namespace semmap::cli

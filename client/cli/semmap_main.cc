@@ -18,6 +18,7 @@ constexpr char kUsage[] =
     "  sessions [--map M]           list mapping sessions\n"
     "  trajectory --map M --session S [-o FILE]   a session's poses in TUM format\n"
     "  export --map M --format F -o FILE          download a map product (tum, json)\n"
+    "  eval ate|rpe|kitti GT EST [options]        trajectory error (TUM ATE/RPE, KITTI)\n"
     "\n"
     "`semmap COMMAND --help` describes a command. --json prints one JSON object to stdout.\n"
     "The server address also comes from $SEMMAP_SERVER. Exit status: 0 ok, 1 error, 2 usage.\n";
@@ -56,6 +57,7 @@ int main(int argc, char** argv) {
   static const std::map<std::string, Command> kCommands = {
       {"health", RunHealth},     {"ingest", RunIngest},         {"maps", RunMaps},
       {"sessions", RunSessions}, {"trajectory", RunTrajectory}, {"export", RunExport},
+      {"eval", RunEval},
   };
   const auto command = kCommands.find(argv[i]);
   if (command == kCommands.end()) {

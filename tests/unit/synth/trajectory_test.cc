@@ -1,0 +1,150 @@
+#include "tests/testing/synth/trajectory.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/pose.h"
+
+namespace semmap::synth {
+namespace {
+
+using Eigen::Vector3d;
+
+const Eigen::AlignedBox3d kRoom(Vector3d(-3, -2.5, 0), Vector3d(3, 2.5, 2.8));
+constexpr TrajectoryKind kAllKinds[] = {TrajectoryKind::kCircle, TrajectoryKind::kFigureEight,
+                                        TrajectoryKind::kCorridorLoop,
+                                        TrajectoryKind::kPureRotation, TrajectoryKind::kFastMotion};
+constexpr TrajectoryKind kLoops[] = {TrajectoryKind::kCircle, TrajectoryKind::kFigureEight,
+                                     TrajectoryKind::kCorridorLoop, TrajectoryKind::kPureRotation};
+
+std::vector<StampedPose> Make(TrajectoryKind kind, TrajectoryOptions options = {}) {
+  StatusOr<std::vector<StampedPose>> poses = MakeTrajectory(kind, kRoom, options);
+  EXPECT_TRUE(poses.ok()) << poses.status().ToString();
+  return poses.ok() ? *poses : std::vector<StampedPose>{};
+}
+
+double Degrees(double radians) { return radians * 180.0 / 3.14159265358979323846; }
+
+TEST(TrajectoryTest, LookingPoseUsesOpenCvCameraAxes) {
+  const Eigen::Isometry3d T = LookingPose(Vector3d(1, 2, 3), 0.0, 0.0);
+  EXPECT_TRUE(T.linear().col(2).isApprox(Vector3d::UnitX()));   // looks along +x
+  EXPECT_TRUE(T.linear().col(1).isApprox(-Vector3d::UnitZ()));  // image down = world down
+  EXPECT_TRUE(T.linear().col(0).isApprox(-Vector3d::UnitY()));  // image right
+  EXPECT_NEAR(T.linear().determinant(), 1.0, 1e-12);
+  const Eigen::Isometry3d up = LookingPose(Vector3d::Zero(), 1.0, 0.4, 0.2);
+  EXPECT_GT(up.linear().col(2).z(), 0.3);  // positive pitch looks up
+  EXPECT_TRUE((up.linear().transpose() * up.linear()).isIdentity(1e-12));
+}
+
+TEST(TrajectoryTest, StampsFollowTheRate) {
+  TrajectoryOptions options;
+  options.frames = 10;
+  options.rate_hz = 20.0;
+  options.start_stamp_ns = 5'000'000'000;
+  for (TrajectoryKind kind : kAllKinds) {
+    const std::vector<StampedPose> poses = Make(kind, options);
+    ASSERT_EQ(poses.size(), 10u);
+    for (size_t i = 0; i < poses.size(); ++i) {
+      EXPECT_EQ(poses[i].stamp_ns, 5'000'000'000 + static_cast<int64_t>(i) * 50'000'000);
+    }
+  }
+}
+
+TEST(TrajectoryTest, StaysInsideTheRoomLookingSlightlyDown) {
+  const Eigen::AlignedBox3d free_zone(Vector3d(-2.0, -1.4, 0.8), Vector3d(2.0, 1.4, 1.8));
+  for (TrajectoryKind kind : kAllKinds) {
+    SCOPED_TRACE(std::string(TrajectoryKindName(kind)));
+    for (const StampedPose& p : Make(kind)) {
+      EXPECT_TRUE(free_zone.contains(p.T_world_camera.translation()))
+          << p.T_world_camera.translation().transpose();
+      const Vector3d forward = p.T_world_camera.linear().col(2);
+      EXPECT_LT(forward.z(), 0.2);   // never up at the ceiling
+      EXPECT_GT(forward.z(), -0.6);  // nor straight at the floor
+      EXPECT_TRUE(
+          (p.T_world_camera.linear().transpose() * p.T_world_camera.linear()).isIdentity(1e-9));
+    }
+  }
+}
+
+TEST(TrajectoryTest, LoopsRevisitTheirStart) {
+  for (TrajectoryKind kind : kLoops) {
+    SCOPED_TRACE(std::string(TrajectoryKindName(kind)));
+    const std::vector<StampedPose> poses = Make(kind);
+    const Eigen::Isometry3d delta =
+        poses.front().T_world_camera.inverse() * poses.back().T_world_camera;
+    EXPECT_LT(delta.translation().norm(), 0.02);
+    EXPECT_LT(Degrees(RotationAngle(delta)), 1.0);
+    // ...after going somewhere: the middle of the lap is far in position or direction.
+    const Eigen::Isometry3d half =
+        poses.front().T_world_camera.inverse() * poses[poses.size() / 2].T_world_camera;
+    EXPECT_TRUE(half.translation().norm() > 1.0 || Degrees(RotationAngle(half)) > 60.0);
+  }
+}
+
+TEST(TrajectoryTest, MotionIsSmoothForLoopsAndQuickForFastMotion) {
+  for (TrajectoryKind kind : kAllKinds) {
+    SCOPED_TRACE(std::string(TrajectoryKindName(kind)));
+    const std::vector<StampedPose> poses = Make(kind);
+    double max_step = 0, max_turn = 0, mean_speed = 0;
+    for (size_t i = 1; i < poses.size(); ++i) {
+      const Eigen::Isometry3d d = poses[i - 1].T_world_camera.inverse() * poses[i].T_world_camera;
+      max_step = std::max(max_step, d.translation().norm());
+      max_turn = std::max(max_turn, Degrees(RotationAngle(d)));
+      mean_speed += d.translation().norm() * 30.0 / (poses.size() - 1);
+    }
+    if (kind == TrajectoryKind::kFastMotion) {
+      EXPECT_GT(mean_speed, 0.8);  // m/s
+      EXPECT_GT(max_turn, 4.0);    // deg per frame
+    } else {
+      EXPECT_LT(max_step, 0.05);
+      EXPECT_LT(max_turn, 3.0);  // 90 deg/s at 30 Hz; the figure-eight comes closest
+    }
+  }
+}
+
+TEST(TrajectoryTest, PureRotationDoesNotTranslate) {
+  const std::vector<StampedPose> poses = Make(TrajectoryKind::kPureRotation);
+  for (const StampedPose& p : poses) {
+    EXPECT_LT((p.T_world_camera.translation() - poses[0].T_world_camera.translation()).norm(),
+              1e-12);
+  }
+}
+
+TEST(TrajectoryTest, FastMotionDependsOnTheSeedOnly) {
+  TrajectoryOptions a, b;
+  b.seed = 99;
+  const std::vector<StampedPose> p1 = Make(TrajectoryKind::kFastMotion, a);
+  const std::vector<StampedPose> p2 = Make(TrajectoryKind::kFastMotion, a);
+  const std::vector<StampedPose> p3 = Make(TrajectoryKind::kFastMotion, b);
+  EXPECT_TRUE(p1[100].T_world_camera.isApprox(p2[100].T_world_camera, 0));
+  EXPECT_GT((p1[100].T_world_camera.translation() - p3[100].T_world_camera.translation()).norm() +
+                RotationAngle(p1[100].T_world_camera.inverse() * p3[100].T_world_camera),
+            0.05);
+}
+
+TEST(TrajectoryTest, NamesAndValidation) {
+  for (TrajectoryKind kind : kAllKinds) {
+    StatusOr<TrajectoryKind> parsed = ParseTrajectoryKind(TrajectoryKindName(kind));
+    ASSERT_TRUE(parsed.ok());
+    EXPECT_EQ(*parsed, kind);
+  }
+  EXPECT_EQ(ParseTrajectoryKind("spiral").status().code(), StatusCode::kInvalidArgument);
+  TrajectoryOptions options;
+  options.frames = 0;
+  EXPECT_FALSE(CircleTrajectory(kRoom, options).ok());
+  options = {};
+  options.rate_hz = 0;
+  EXPECT_FALSE(FigureEightTrajectory(kRoom, options).ok());
+  options = {};
+  options.camera_height = 2.7;
+  EXPECT_FALSE(CorridorLoopTrajectory(kRoom, options).ok());
+  EXPECT_FALSE(
+      PureRotationTrajectory(Eigen::AlignedBox3d(Vector3d::Zero(), Vector3d(2, 2, 2)), {}).ok());
+  options = {};
+  options.frames = 1;
+  EXPECT_EQ(FastMotionTrajectory(kRoom, options)->size(), 1u);
+}
+
+}  // namespace
+}  // namespace semmap::synth
