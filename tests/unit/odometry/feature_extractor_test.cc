@@ -1,0 +1,182 @@
+#include "server/odometry/feature_extractor.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <opencv2/calib3d.hpp>
+#include <vector>
+
+#include "tests/unit/odometry/odometry_test_util.h"
+
+namespace semmap {
+namespace {
+
+using odometry_test::Circle;
+using odometry_test::Extract;
+using odometry_test::MakeRenderer;
+using odometry_test::Project;
+
+FeatureExtractor MakeExtractor(const CameraCalibration& camera,
+                               FeatureExtractorOptions options = {}) {
+  StatusOr<FeatureExtractor> e = FeatureExtractor::Create(options, camera);
+  EXPECT_TRUE(e.ok()) << e.status().ToString();
+  return std::move(e).value();
+}
+
+TEST(FeatureExtractorTest, KeypointsSpreadOverTheGrid) {
+  const CameraCalibration camera = synth::DefaultSyntheticCamera();
+  const synth::Renderer renderer = MakeRenderer(camera);
+  const FeatureExtractor extractor = MakeExtractor(camera);
+  const FrameFeatures f = Extract(extractor, renderer.Render(Circle(8)[0].T_world_camera));
+  ASSERT_EQ(f.descriptors.rows, static_cast<int>(f.size()));
+  EXPECT_GE(f.size(), 900u);
+  EXPECT_LE(f.size(), 1000u);
+  std::vector<int> per_cell(48, 0);
+  for (const cv::KeyPoint& k : f.keypoints) {
+    ++per_cell[static_cast<size_t>(static_cast<int>(k.pt.y / 80) * 8 +
+                                   static_cast<int>(k.pt.x / 80))];
+  }
+  const int occupied = static_cast<int>(
+      std::count_if(per_cell.begin(), per_cell.end(), [](int n) { return n > 0; }));
+  EXPECT_GE(occupied, 44) << "of 48 cells";
+  // No cell hogs the budget: the equal share is 20, leftovers go to the strongest elsewhere.
+  EXPECT_LE(*std::max_element(per_cell.begin(), per_cell.end()), 120);
+  EXPECT_GT(f.NumWithDepth(), f.size() * 9 / 10);
+}
+
+TEST(FeatureExtractorTest, DepthAgreesWithTheRenderedGeometry) {
+  const CameraCalibration camera = synth::DefaultSyntheticCamera();
+  const synth::Renderer renderer = MakeRenderer(camera);
+  const FeatureExtractor extractor = MakeExtractor(camera);
+  const std::vector<StampedPose> poses = Circle(60);
+  const Eigen::Isometry3d T_w_a = poses[0].T_world_camera, T_w_b = poses[3].T_world_camera;
+  const synth::RenderedFrame a = renderer.Render(T_w_a), b = renderer.Render(T_w_b);
+  const FrameFeatures f = Extract(extractor, a);
+  // Each keypoint's 3D point, seen from another pose, must lie on the surface that view renders
+  // there (an independent check of pixel, depth and unprojection conventions).
+  int checked = 0, within_1cm = 0;
+  std::vector<double> errors;
+  for (size_t i = 0; i < f.size(); ++i) {
+    if (!f.has_depth[i]) continue;
+    const Eigen::Vector3d& p = f.points_camera[i];
+    EXPECT_NEAR(Project(camera, p).x(), f.keypoints[i].pt.x, 1e-6);
+    const Eigen::Vector3d q = T_w_b.inverse() * (T_w_a * p);
+    const Eigen::Vector2d uv = Project(camera, q);
+    const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+    if (q.z() <= 0 || u < 0 || v < 0 || u >= camera.width || v >= camera.height) continue;
+    const uint16_t raw = b.depth.at<uint16_t>(v, u);
+    if (raw == 0) continue;
+    const double err = std::abs(raw / synth::kDepthScale - q.z());
+    errors.push_back(err);
+    ++checked;
+    if (err < 0.01) ++within_1cm;
+  }
+  ASSERT_GT(checked, 500);
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  EXPECT_LT(errors[errors.size() / 2], 0.003);
+  // Keypoints like corners sit on depth edges, where half a pixel changes the surface.
+  EXPECT_GT(within_1cm, checked * 85 / 100) << within_1cm << " of " << checked;
+}
+
+TEST(FeatureExtractorTest, DepthOutsideTheRangeOrMissingGivesNoPoint) {
+  const CameraCalibration camera = synth::DefaultSyntheticCamera(320, 240);
+  const synth::Renderer renderer = MakeRenderer(camera);
+  const FeatureExtractor extractor = MakeExtractor(camera);
+  synth::RenderedFrame frame = renderer.Render(Circle(8)[0].T_world_camera);
+  // Left third: no depth; right third: 9 m (beyond 8 m).
+  frame.depth.colRange(0, 100).setTo(0);
+  frame.depth.colRange(220, 320).setTo(static_cast<uint16_t>(9.0 * synth::kDepthScale));
+  const FrameFeatures f = Extract(extractor, frame);
+  int middle = 0;
+  for (size_t i = 0; i < f.size(); ++i) {
+    const float x = f.keypoints[i].pt.x;
+    if (x < 99.5f || x > 219.5f) {
+      EXPECT_FALSE(f.has_depth[i]) << x;
+    }
+    if (x > 101 && x < 218) middle += f.has_depth[i] ? 1 : 0;
+  }
+  EXPECT_GT(middle, 50);
+  // Without a depth image, no keypoint has a point.
+  StatusOr<FrameFeatures> no_depth = extractor.Extract(frame.bgr, cv::Mat(), 0);
+  ASSERT_TRUE(no_depth.ok());
+  EXPECT_EQ(no_depth->NumWithDepth(), 0u);
+}
+
+TEST(FeatureExtractorTest, DistortedCameraGivesUndistortedKeypoints) {
+  const CameraCalibration pinhole = synth::DefaultSyntheticCamera(320, 240);
+  CameraCalibration distorted = pinhole;
+  distorted.distortion = {0.12, -0.05, 0.001, -0.001, 0.0};
+  const synth::RenderedFrame frame = MakeRenderer(pinhole).Render(Circle(8)[1].T_world_camera);
+  const FrameFeatures raw = Extract(MakeExtractor(pinhole), frame);
+  const FrameFeatures und = Extract(MakeExtractor(distorted), frame);
+  ASSERT_EQ(raw.size(), und.size());
+  std::vector<cv::Point2f> in, expected;
+  for (const cv::KeyPoint& k : raw.keypoints) in.push_back(k.pt);
+  const cv::Matx33d K(pinhole.fx, 0, pinhole.cx, 0, pinhole.fy, pinhole.cy, 0, 0, 1);
+  cv::undistortPoints(in, expected, K, cv::Mat(1, 5, CV_64F, distorted.distortion.data()),
+                      cv::noArray(), K);
+  double moved = 0;
+  for (size_t i = 0; i < raw.size(); ++i) {
+    EXPECT_NEAR(und.keypoints[i].pt.x, expected[i].x, 1e-3);
+    EXPECT_NEAR(und.keypoints[i].pt.y, expected[i].y, 1e-3);
+    moved =
+        std::max(moved, static_cast<double>(cv::norm(und.keypoints[i].pt - raw.keypoints[i].pt)));
+    // Depth comes from the raw pixel: the same availability either way.
+    EXPECT_EQ(raw.has_depth[i], und.has_depth[i]);
+  }
+  EXPECT_GT(moved, 2.0);
+}
+
+TEST(FeatureExtractorTest, SiftAndAkazeAreSelectable) {
+  const CameraCalibration camera = synth::DefaultSyntheticCamera(320, 240);
+  const synth::RenderedFrame frame = MakeRenderer(camera).Render(Circle(8)[2].T_world_camera);
+  FeatureExtractorOptions sift;
+  sift.type = FeatureType::kSift;
+  sift.max_features = 300;
+  const FrameFeatures s = Extract(MakeExtractor(camera, sift), frame);
+  EXPECT_GT(s.size(), 100u);
+  EXPECT_LE(s.size(), 300u);
+  EXPECT_EQ(s.descriptors.type(), CV_32FC1);
+  FeatureExtractorOptions akaze;
+  akaze.type = FeatureType::kAkaze;
+  akaze.max_features = 300;
+  const FrameFeatures a = Extract(MakeExtractor(camera, akaze), frame);
+  EXPECT_GT(a.size(), 100u);
+  EXPECT_TRUE(a.binary_descriptors());
+  EXPECT_EQ(a.descriptors.rows, static_cast<int>(a.size()));
+}
+
+TEST(FeatureExtractorTest, RejectsBadOptionsAndInput) {
+  const CameraCalibration camera = synth::DefaultSyntheticCamera(320, 240);
+  FeatureExtractorOptions bad;
+  bad.max_depth_m = 0.05;
+  EXPECT_EQ(FeatureExtractor::Create(bad, camera).status().code(), StatusCode::kInvalidArgument);
+  const FeatureExtractor extractor = MakeExtractor(camera);
+  const cv::Mat wrong_size(100, 100, CV_8UC1, cv::Scalar(0));
+  EXPECT_EQ(extractor.Extract(wrong_size, cv::Mat(), 0).status().code(),
+            StatusCode::kInvalidArgument);
+  const cv::Mat grey(240, 320, CV_8UC1, cv::Scalar(0));
+  const cv::Mat float_depth(240, 320, CV_32FC1, cv::Scalar(1));
+  EXPECT_EQ(extractor.Extract(grey, float_depth, 5000).status().code(),
+            StatusCode::kInvalidArgument);
+  // A blank image has no features, which is not an error.
+  StatusOr<FrameFeatures> blank =
+      extractor.Extract(grey, cv::Mat(240, 320, CV_16UC1, cv::Scalar(0)), 5000);
+  ASSERT_TRUE(blank.ok());
+  EXPECT_EQ(blank->size(), 0u);
+}
+
+TEST(BucketKeypointsTest, EqualSharesFirstThenStrongest) {
+  std::vector<cv::KeyPoint> k;
+  // 100 strong keypoints crowded in the top-left cell, 3 weak ones in the bottom-right.
+  for (int i = 0; i < 100; ++i)
+    k.emplace_back(cv::Point2f(1.0f + i % 10, 1.0f + i / 10), 7, -1, 100.0f + i);
+  for (int i = 0; i < 3; ++i) k.emplace_back(cv::Point2f(95.0f, 95.0f - i), 7, -1, 1.0f);
+  const std::vector<cv::KeyPoint> out = BucketKeypoints(k, 100, 100, 2, 2, 20);
+  ASSERT_EQ(out.size(), 20u);
+  EXPECT_EQ(
+      std::count_if(out.begin(), out.end(), [](const cv::KeyPoint& p) { return p.pt.x > 50; }), 3);
+}
+
+}  // namespace
+}  // namespace semmap
