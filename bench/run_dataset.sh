@@ -74,7 +74,8 @@ if [ -n "$GT" ]; then
           --plot-errors "$OUT/ate_errors.png")
   rpe=$("$SEMMAP" --json eval rpe "$GT" "$OUT/estimate.txt" --delta 1 --delta-unit s)
   jq -r '"ATE (m): rmse \(.rmse) mean \(.mean) median \(.median) max \(.max) over \(.pairs) pairs"' <<<"$ate"
-  jq -r '"RPE (1 s): \(.)"' <<<"$rpe" | head -c 400; echo
+  jq -r '"RPE (1 s): translation rmse \(.translation_m.rmse) m, rotation rmse " +
+         "\(.rotation_deg.rmse) deg over \(.pairs) pairs"' <<<"$rpe"
   echo "plots: $OUT/trajectory.png $OUT/ate_errors.png"
 else
   echo "no ground truth: ATE/RPE skipped"
