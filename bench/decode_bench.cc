@@ -29,6 +29,11 @@ ImageMessage Compressed(const std::string& format, const std::string& path) {
   return image;
 }
 
+// The sample's first colour frame, decoded once: the source of the PNG and raw variants.
+cv::Mat SampleBgr() {
+  return *DecodeColour(Compressed("jpeg", kSample + "rgb/1341841873.273798.jpg"), 640, 480);
+}
+
 void DecodeColourLoop(benchmark::State& state, const ImageMessage& image) {
   for (auto _ : state) {
     auto decoded = DecodeColour(image, 640, 480);
@@ -45,13 +50,13 @@ BENCHMARK(BM_DecodeColourJpeg)->Unit(benchmark::kMillisecond);
 
 void BM_DecodeColourPng(benchmark::State& state) {
   // Re-encode the sample as PNG: TUM publishes colour as PNG.
-  auto jpeg = DecodeColour(Compressed("jpeg", kSample + "rgb/1341841873.273798.jpg"), 640, 480);
+  const cv::Mat bgr = SampleBgr();
   ImageMessage png;
   png.kind = ImageMessage::Kind::kCompressed;
   png.encoding = "png";
   {
     std::vector<uint8_t> buf;
-    cv::imencode(".png", *jpeg, buf);
+    cv::imencode(".png", bgr, buf);
     png.data.assign(buf.begin(), buf.end());
   }
   DecodeColourLoop(state, png);
@@ -59,13 +64,13 @@ void BM_DecodeColourPng(benchmark::State& state) {
 BENCHMARK(BM_DecodeColourPng)->Unit(benchmark::kMillisecond);
 
 void BM_DecodeColourRawRgb(benchmark::State& state) {
-  auto bgr = DecodeColour(Compressed("jpeg", kSample + "rgb/1341841873.273798.jpg"), 640, 480);
+  const cv::Mat bgr = SampleBgr();
   ImageMessage raw;
   raw.kind = ImageMessage::Kind::kRaw;
   raw.encoding = "rgb8";
   raw.width = 640;
   raw.height = 480;
-  raw.data.assign(reinterpret_cast<const char*>(bgr->data), bgr->total() * 3);
+  raw.data.assign(reinterpret_cast<const char*>(bgr.data), bgr.total() * 3);
   DecodeColourLoop(state, raw);
 }
 BENCHMARK(BM_DecodeColourRawRgb)->Unit(benchmark::kMillisecond);

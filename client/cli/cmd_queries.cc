@@ -5,8 +5,7 @@
 
 #include "client/cli/commands.h"
 #include "client/cli/json_views.h"
-#include "common/pose.h"
-#include "common/time_util.h"
+#include "common/tum_format.h"
 
 namespace semmap::cli {
 
@@ -116,12 +115,8 @@ int RunTrajectory(CliContext context, int argc, const char* const* argv) {
     if (!file) return ReportError(UnavailableError("cannot write " + parser.Get("o")));
   }
   std::ostream& out = parser.Has("o") ? file : std::cout;
-  out << "# timestamp tx ty tz qx qy qz qw\n" << std::fixed << std::setprecision(9);
-  for (const TrajectoryPose& p : *poses) {
-    const PoseTq tq = ToPoseTq(p.T_world_camera);
-    out << FormatStampSeconds(p.stamp_ns) << " " << tq.t.x() << " " << tq.t.y() << " " << tq.t.z()
-        << " " << tq.q.x() << " " << tq.q.y() << " " << tq.q.z() << " " << tq.q.w() << "\n";
-  }
+  out << "# timestamp tx ty tz qx qy qz qw\n";
+  for (const TrajectoryPose& p : *poses) out << FormatTumPoseLine(p.stamp_ns, p.T_world_camera);
   if (parser.Has("o")) {
     file.close();
     if (!file) return ReportError(UnavailableError("writing " + parser.Get("o") + " failed"));

@@ -10,6 +10,7 @@
 #include "client/datasets/text_parse.h"
 #include "common/pose.h"
 #include "common/time_util.h"
+#include "common/tum_format.h"
 
 namespace semmap {
 namespace {
@@ -118,10 +119,7 @@ Status WriteTumTrajectory(const std::string& path, const std::vector<StampedPose
   SEMMAP_RETURN_IF_ERROR(out.OpenStatus());
   std::fprintf(out.get(), "# timestamp tx ty tz qx qy qz qw (T_world_camera)\n");
   for (const StampedPose& pose : poses) {
-    const PoseTq tq = ToPoseTq(pose.T_world_camera);
-    std::fprintf(out.get(), "%s %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n",
-                 FormatStampSeconds(pose.stamp_ns).c_str(), tq.t.x(), tq.t.y(), tq.t.z(), tq.q.x(),
-                 tq.q.y(), tq.q.z(), tq.q.w());
+    std::fputs(FormatTumPoseLine(pose.stamp_ns, pose.T_world_camera).c_str(), out.get());
   }
   return out.Close();
 }

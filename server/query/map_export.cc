@@ -1,24 +1,15 @@
 #include "server/query/map_export.h"
 
-#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "common/pose.h"
 #include "common/sha256.h"
 #include "common/time_util.h"
+#include "common/tum_format.h"
 
 namespace semmap {
 namespace {
-
-std::string FormatTumLine(const TrajectoryPose& p) {
-  const PoseTq tq = ToPoseTq(p.T_world_camera);
-  char buf[256];
-  std::snprintf(buf, sizeof(buf), "%s %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n",
-                FormatStampSeconds(p.stamp_ns).c_str(), tq.t.x(), tq.t.y(), tq.t.z(), tq.q.x(),
-                tq.q.y(), tq.q.z(), tq.q.w());
-  return buf;
-}
 
 nlohmann::json PoseJson(const Eigen::Isometry3d& T) {
   const PoseTq tq = ToPoseTq(T);
@@ -41,7 +32,7 @@ StatusOr<std::string> ExportTum(MapStore& store, const ExportRequest& request) {
                           store.GetTrajectory(session.id, /*keyframes_only=*/false));
   std::string out = "# semmap trajectory of map '" + request.map + "' session '" + session.name +
                     "' (T_world_camera)\n# timestamp tx ty tz qx qy qz qw\n";
-  for (const TrajectoryPose& p : poses) out += FormatTumLine(p);
+  for (const TrajectoryPose& p : poses) out += FormatTumPoseLine(p.stamp_ns, p.T_world_camera);
   return out;
 }
 

@@ -15,6 +15,14 @@ namespace {
 using testing::RunCommand;
 using testing::SemmapCliPath;
 
+// Pose lines (not comments, not blank) of a TUM trajectory file.
+int CountPoseLines(const std::string& path) {
+  std::ifstream file(path);
+  int lines = 0;
+  for (std::string line; std::getline(file, line);) lines += !line.empty() && line[0] != '#';
+  return lines;
+}
+
 TEST(TeddyE2ETest, KnownPosesSessionSurvivesRestart) {
   const std::string data = testing::SharedDataDir();
   if (data.empty()) GTEST_SKIP() << "shared data not found (../shared/data): skipping teddy e2e";
@@ -39,10 +47,7 @@ TEST(TeddyE2ETest, KnownPosesSessionSurvivesRestart) {
   EXPECT_LT(keyframes, 200);
 
   // --trajectory-out has a pose for every streamed frame.
-  std::ifstream traj(trajectory_file);
-  int lines = 0;
-  for (std::string line; std::getline(traj, line);) lines += !line.empty() && line[0] != '#';
-  EXPECT_EQ(lines, 200);
+  EXPECT_EQ(CountPoseLines(trajectory_file), 200);
 
   EXPECT_EQ(server.Stop(SIGTERM), 0);
   ASSERT_TRUE(server.Start(dir.path()).ok());
@@ -81,10 +86,7 @@ TEST(TeddyE2ETest, KnownPosesSessionSurvivesRestart) {
             0)
       << out;
   EXPECT_EQ(nlohmann::json::parse(out)["sha256"].get<std::string>().size(), 64u);
-  std::ifstream tum(exported);
-  int tum_lines = 0;
-  for (std::string line; std::getline(tum, line);) tum_lines += !line.empty() && line[0] != '#';
-  EXPECT_EQ(tum_lines, 200);
+  EXPECT_EQ(CountPoseLines(exported), 200);
 
   out.clear();
   EXPECT_EQ(RunCommand({SemmapCliPath(), "--server", server.address(), "trajectory", "--map",

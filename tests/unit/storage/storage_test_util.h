@@ -1,49 +1,17 @@
-// Helpers shared by the storage tests: a self-deleting temporary directory and small records.
+// Helpers shared by the storage tests: small records (TempDir comes from tests/testing).
 #pragma once
 
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <filesystem>
-#include <random>
 #include <string>
 
 #include "common/map_types.h"
 #include "common/status.h"
+#include "tests/testing/temp_dir.h"
 
 namespace semmap::storage_test {
 
-// A fresh directory under the system temp dir, removed recursively on destruction.
-class TempDir {
- public:
-  TempDir() {
-    static std::atomic<int> counter{0};
-    std::random_device random;
-    const auto base = std::filesystem::temp_directory_path();
-    for (int attempt = 0; attempt < 100; ++attempt) {
-      const auto candidate =
-          base / ("semmap-test-" + std::to_string(random()) + "-" + std::to_string(counter++));
-      std::error_code ec;
-      if (std::filesystem::create_directory(candidate, ec)) {
-        path_ = candidate.string();
-        return;
-      }
-    }
-    ADD_FAILURE() << "cannot create a temporary directory under " << base;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    if (!path_.empty()) std::filesystem::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-
-  const std::string& path() const { return path_; }
-  std::string File(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
-};
+using TempDir = testing::TempDir;
 
 inline Eigen::Isometry3d PoseAt(double x, double yaw = 0) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
