@@ -63,6 +63,18 @@ struct KeyframeRecord {
   EncodedImage colour;
   EncodedImage depth;      // 16-bit PNG; metres = value / depth_scale
   double depth_scale = 0;  // 0 when the keyframe has no depth
+  // Encoded local features (keypoints, descriptors, 3D points) for relocalisation and loop
+  // closure; opaque to the store, which checksums them. Empty when the mode keeps none.
+  std::string features_format;  // e.g. "semmap-features-v1"
+  std::string features;
+};
+
+// A corrected pose for a frame (and its keyframe, when it is one) after the back end moved
+// the map: loop closure / pose-graph optimisation re-anchors stored poses.
+struct PoseUpdate {
+  int64_t session_id = 0;
+  int64_t seq = 0;
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
 };
 
 // A constraint between two keyframes of one map (odometry or loop closure).

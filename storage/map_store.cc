@@ -22,6 +22,7 @@ void WriteBatch::Append(WriteBatch&& other) {
   MoveAppend(keyframes, std::move(other.keyframes));
   MoveAppend(links, std::move(other.links));
   MoveAppend(blobs, std::move(other.blobs));
+  MoveAppend(pose_updates, std::move(other.pose_updates));
 }
 
 }  // namespace semmap

@@ -19,8 +19,12 @@ struct WriteBatch {
   std::vector<KeyframeRecord> keyframes;                   // ids assigned by the store, in order
   std::vector<LinkRecord> links;
   std::vector<MapBlob> blobs;  // replaces the blob of the same (map_id, kind)
+  // Applied after frames and keyframes: moves the frame row (and the keyframe row when the
+  // frame is a keyframe) of (session_id, seq). NOT_FOUND when the frame does not exist.
+  std::vector<PoseUpdate> pose_updates;
   bool empty() const {
-    return frames.empty() && keyframes.empty() && links.empty() && blobs.empty();
+    return frames.empty() && keyframes.empty() && links.empty() && blobs.empty() &&
+           pose_updates.empty();
   }
   void Append(WriteBatch&& other);
 };
@@ -51,8 +55,9 @@ class MapStore {
   // Poses in seq order; keyframes_only restricts to keyframes.
   virtual StatusOr<std::vector<TrajectoryPose>> GetTrajectory(int64_t session_id,
                                                               bool keyframes_only) = 0;
+  // With images and features (DATA_LOSS when the stored features fail their checksum).
   virtual StatusOr<KeyframeRecord> GetKeyframe(int64_t keyframe_id) = 0;
-  // Keyframes of a session in seq order, without image bytes unless with_images.
+  // Keyframes of a session in seq order, without image and feature bytes unless with_images.
   virtual StatusOr<std::vector<KeyframeRecord>> ListKeyframes(int64_t session_id,
                                                               bool with_images) = 0;
   virtual StatusOr<std::vector<LinkRecord>> ListLinks(int64_t map_id) = 0;

@@ -84,8 +84,21 @@ CREATE TABLE blobs (
 ) STRICT;
 )sql";
 
+// Version 2: local features of keyframes (relocalisation, loop closure), checksummed like map
+// blobs; one row per keyframe that has them.
+constexpr char kSchemaV2[] = R"sql(
+CREATE TABLE keyframe_features (
+  keyframe_id INTEGER PRIMARY KEY REFERENCES keyframes(id) ON DELETE CASCADE,
+  format TEXT NOT NULL,
+  data BLOB NOT NULL,
+  length INTEGER NOT NULL,
+  sha256 BLOB NOT NULL CHECK (length(sha256) = 32)
+) STRICT;
+)sql";
+
 constexpr Migration kMigrations[] = {
     {1, "initial schema", kSchemaV1},
+    {2, "keyframe features", kSchemaV2},
 };
 
 }  // namespace

@@ -75,6 +75,9 @@ class SqliteMapStore final : public MapStore {
   StatusOr<int64_t> WriteKeyframe(const KeyframeRecord& keyframe);
   Status WriteLink(const LinkRecord& link);
   Status WriteBlob(const MapBlob& blob);
+  Status WriteKeyframeFeatures(int64_t keyframe_id, const KeyframeRecord& keyframe);
+  Status ApplyPoseUpdate(const PoseUpdate& update);
+  Status ReadKeyframeFeatures(KeyframeRecord& keyframe);
   // The keyframe a link end names, checked to belong to `map_id`.
   StatusOr<int64_t> ResolveLinkEnd(int64_t map_id, int64_t keyframe_id, int64_t session_id,
                                    int64_t seq, const char* end);

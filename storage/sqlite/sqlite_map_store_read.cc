@@ -35,6 +35,24 @@ StatusOr<std::vector<TrajectoryPose>> SqliteMapStore::GetTrajectory(int64_t sess
 
 namespace {
 
+// Length and SHA-256 stored beside a blob: a truncated or altered value (disk error, manual edit)
+// is DATA_LOSS instead of reaching a parser.
+Status VerifyChecksummed(const std::string& name, const std::string& data, int64_t length,
+                         const std::string& stored_digest) {
+  if (static_cast<int64_t>(data.size()) != length) {
+    return DataLossError(name + " is corrupt: stored length " + std::to_string(length) + ", read " +
+                         std::to_string(data.size()) + " bytes");
+  }
+  const Sha256Digest digest = Sha256(data);
+  if (stored_digest.size() != digest.size() ||
+      !std::equal(digest.begin(), digest.end(), stored_digest.begin(),
+                  [](uint8_t a, char b) { return a == static_cast<uint8_t>(b); })) {
+    return DataLossError(name + " is corrupt: its sha256 " + ToHex(digest) +
+                         " does not match the stored checksum");
+  }
+  return OkStatus();
+}
+
 // Columns 0..13 of the keyframe queries below; 14 and 15 are the image bytes when selected.
 KeyframeRecord KeyframeFromRow(const sqlite::Statement& stmt, bool with_images) {
   KeyframeRecord kf;
@@ -64,7 +82,24 @@ StatusOr<KeyframeRecord> SqliteMapStore::GetKeyframe(int64_t keyframe_id) {
   SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, keyframe_id));
   SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
   if (!row) return NotFoundError("keyframe id " + std::to_string(keyframe_id) + " not found");
-  return KeyframeFromRow(*stmt, /*with_images=*/true);
+  KeyframeRecord kf = KeyframeFromRow(*stmt, /*with_images=*/true);
+  SEMMAP_RETURN_IF_ERROR(ReadKeyframeFeatures(kf));
+  return kf;
+}
+
+Status SqliteMapStore::ReadKeyframeFeatures(KeyframeRecord& kf) {
+  SEMMAP_ASSIGN_OR_RETURN(StatementLease stmt,
+                          db_->Prepare("SELECT format, data, length, sha256 FROM keyframe_features"
+                                       " WHERE keyframe_id = ?1"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, kf.id));
+  SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+  if (!row) return OkStatus();  // a keyframe without features (e.g. KNOWN_POSES)
+  std::string data = stmt->ColumnBlob(1);
+  SEMMAP_RETURN_IF_ERROR(VerifyChecksummed("features of keyframe id " + std::to_string(kf.id), data,
+                                           stmt->ColumnInt64(2), stmt->ColumnBlob(3)));
+  kf.features_format = stmt->ColumnText(0);
+  kf.features = std::move(data);
+  return OkStatus();
 }
 
 StatusOr<std::vector<KeyframeRecord>> SqliteMapStore::ListKeyframes(int64_t session_id,
@@ -85,6 +120,9 @@ StatusOr<std::vector<KeyframeRecord>> SqliteMapStore::ListKeyframes(int64_t sess
     SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
     if (!row) break;
     keyframes.push_back(KeyframeFromRow(*stmt, with_images));
+  }
+  if (with_images) {
+    for (KeyframeRecord& kf : keyframes) SEMMAP_RETURN_IF_ERROR(ReadKeyframeFeatures(kf));
   }
   return keyframes;
 }
@@ -137,19 +175,8 @@ StatusOr<MapBlob> SqliteMapStore::GetBlob(int64_t map_id, const std::string& kin
   blob.kind = kind;
   blob.data = stmt->ColumnBlob(0);
   blob.updated_unix_ns = stmt->ColumnInt64(3);
-  const int64_t length = stmt->ColumnInt64(1);
-  if (static_cast<int64_t>(blob.data.size()) != length) {
-    return DataLossError(name + " is corrupt: stored length " + std::to_string(length) + ", read " +
-                         std::to_string(blob.data.size()) + " bytes");
-  }
-  const std::string stored = stmt->ColumnBlob(2);
-  const Sha256Digest digest = Sha256(blob.data);
-  if (stored.size() != digest.size() ||
-      !std::equal(digest.begin(), digest.end(), stored.begin(),
-                  [](uint8_t a, char b) { return a == static_cast<uint8_t>(b); })) {
-    return DataLossError(name + " is corrupt: its sha256 " + ToHex(digest) +
-                         " does not match the stored checksum");
-  }
+  SEMMAP_RETURN_IF_ERROR(
+      VerifyChecksummed(name, blob.data, stmt->ColumnInt64(1), stmt->ColumnBlob(2)));
   return blob;
 }
 

@@ -46,6 +46,11 @@ StatusOr<WriteResult> SqliteMapStore::Write(const WriteBatch& batch) {
   for (const MapBlob& blob : batch.blobs) {
     SEMMAP_RETURN_IF_ERROR(WriteBlob(blob).WithContext("map blob '" + blob.kind + "'"));
   }
+  for (const PoseUpdate& update : batch.pose_updates) {
+    SEMMAP_RETURN_IF_ERROR(
+        ApplyPoseUpdate(update).WithContext("pose update of seq " + std::to_string(update.seq) +
+                                            " of session " + std::to_string(update.session_id)));
+  }
   SEMMAP_RETURN_IF_ERROR(transaction.Commit());
   return result;
 }
@@ -88,7 +93,45 @@ StatusOr<int64_t> SqliteMapStore::WriteKeyframe(const KeyframeRecord& kf) {
     return AlreadyExistsError("the session already has a keyframe at this seq");
   }
   SEMMAP_RETURN_IF_ERROR(inserted);
-  return db_->last_insert_rowid();
+  const int64_t id = db_->last_insert_rowid();
+  if (!kf.features.empty()) SEMMAP_RETURN_IF_ERROR(WriteKeyframeFeatures(id, kf));
+  return id;
+}
+
+Status SqliteMapStore::WriteKeyframeFeatures(int64_t keyframe_id, const KeyframeRecord& kf) {
+  if (kf.features_format.empty()) return InvalidArgumentError("keyframe features have no format");
+  const Sha256Digest digest = Sha256(kf.features);
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare("INSERT INTO keyframe_features (keyframe_id, format, data, length, sha256)"
+                   " VALUES (?1, ?2, ?3, ?4, ?5)"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, keyframe_id));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindText(2, kf.features_format));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindBlobNoCopy(3, kf.features));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(4, static_cast<int64_t>(kf.features.size())));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindBlob(
+      5, std::string_view(reinterpret_cast<const char*>(digest.data()), digest.size())));
+  return stmt->Run();
+}
+
+Status SqliteMapStore::ApplyPoseUpdate(const PoseUpdate& update) {
+  {
+    SEMMAP_ASSIGN_OR_RETURN(
+        StatementLease stmt,
+        db_->Prepare("UPDATE frames SET tx = ?3, ty = ?4, tz = ?5, qx = ?6, qy = ?7, qz = ?8,"
+                     " qw = ?9 WHERE session_id = ?1 AND seq = ?2"));
+    SEMMAP_RETURN_IF_ERROR(stmt->BindAll(update.session_id, update.seq));
+    SEMMAP_RETURN_IF_ERROR(sqlite::BindPose(*stmt, 3, update.T_world_camera));
+    SEMMAP_RETURN_IF_ERROR(stmt->Run());
+    if (db_->changes() == 0) return NotFoundError("no such frame");
+  }
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare("UPDATE keyframes SET tx = ?3, ty = ?4, tz = ?5, qx = ?6, qy = ?7, qz = ?8,"
+                   " qw = ?9 WHERE session_id = ?1 AND seq = ?2"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindAll(update.session_id, update.seq));
+  SEMMAP_RETURN_IF_ERROR(sqlite::BindPose(*stmt, 3, update.T_world_camera));
+  return stmt->Run();
 }
 
 StatusOr<int64_t> SqliteMapStore::ResolveLinkEnd(int64_t map_id, int64_t keyframe_id,

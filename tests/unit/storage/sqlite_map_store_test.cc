@@ -543,6 +543,84 @@ TEST_F(SqliteMapStoreTest, UpdateKeyframePosesIsAllOrNothing) {
   EXPECT_OK(store_->UpdateKeyframePoses({}));
 }
 
+TEST_F(SqliteMapStoreTest, PoseUpdatesMoveFramesAndKeyframesInTheBatch) {
+  const SessionInfo s = Session("m", "s");
+  WriteBatch batch;
+  batch.frames = {{s.id, FramePose(0, true)}, {s.id, FramePose(1, false)}};
+  batch.keyframes.push_back(Keyframe(s.id, 0));
+  // Updates apply after the rows of the same batch: a frame written and moved at once.
+  batch.pose_updates.push_back({s.id, 1, PoseAt(5.0, 0.3)});
+  const int64_t kf = Write(batch).keyframe_ids.at(0);
+  WriteBatch update;
+  update.pose_updates.push_back({s.id, 0, PoseAt(-2.0, 0.1)});
+  Write(update);
+  ExpectPoseNear(store_->GetKeyframe(kf)->T_world_camera, PoseAt(-2.0, 0.1));
+  auto trajectory = store_->GetTrajectory(s.id, false);
+  ASSERT_OK(trajectory.status());
+  ExpectPoseNear((*trajectory)[0].T_world_camera, PoseAt(-2.0, 0.1));
+  ExpectPoseNear((*trajectory)[1].T_world_camera, PoseAt(5.0, 0.3));
+}
+
+TEST_F(SqliteMapStoreTest, PoseUpdateOfAMissingFrameFailsTheBatch) {
+  const SessionInfo s = Session("m", "s");
+  WriteBatch batch;
+  batch.frames = {{s.id, FramePose(0)}};
+  batch.pose_updates.push_back({s.id, 7, PoseAt(1.0)});
+  auto result = store_->Write(batch);
+  EXPECT_EQ(result.status().code(), StatusCode::kNotFound) << result.status().ToString();
+  EXPECT_NE(result.status().message().find("seq 7"), std::string::npos);
+  EXPECT_EQ(Count("frames"), 0);  // all or nothing
+}
+
+// --- keyframe features ---
+
+TEST_F(SqliteMapStoreTest, KeyframeFeaturesRoundTripAndAreOptional) {
+  const SessionInfo s = Session("m", "s");
+  WriteBatch batch;
+  KeyframeRecord with = Keyframe(s.id, 0);
+  with.features_format = "semmap-features-v1";
+  with.features = std::string("\0\1binary\xff", 10);
+  batch.keyframes = {with, Keyframe(s.id, 1)};
+  const WriteResult written = Write(batch);
+  auto read = store_->GetKeyframe(written.keyframe_ids.at(0));
+  ASSERT_OK(read.status());
+  EXPECT_EQ(read->features_format, "semmap-features-v1");
+  EXPECT_EQ(read->features, with.features);
+  auto without = store_->GetKeyframe(written.keyframe_ids.at(1));
+  ASSERT_OK(without.status());
+  EXPECT_TRUE(without->features.empty());
+  auto listed = store_->ListKeyframes(s.id, /*with_images=*/true);
+  ASSERT_OK(listed.status());
+  EXPECT_EQ((*listed)[0].features, with.features);
+  auto bare = store_->ListKeyframes(s.id, /*with_images=*/false);
+  ASSERT_OK(bare.status());
+  EXPECT_TRUE((*bare)[0].features.empty());
+}
+
+TEST_F(SqliteMapStoreTest, FeaturesWithoutFormatAreRejected) {
+  const SessionInfo s = Session("m", "s");
+  WriteBatch batch;
+  KeyframeRecord kf = Keyframe(s.id, 0);
+  kf.features = "xyz";
+  batch.keyframes = {kf};
+  EXPECT_EQ(store_->Write(batch).status().code(), StatusCode::kInvalidArgument);
+}
+
+TEST_F(SqliteMapStoreTest, CorruptedFeaturesAreDataLoss) {
+  const SessionInfo s = Session("m", "s");
+  WriteBatch batch;
+  KeyframeRecord kf = Keyframe(s.id, 0);
+  kf.features_format = "semmap-features-v1";
+  kf.features = std::string(64, 'a');
+  batch.keyframes = {kf};
+  const int64_t id = Write(batch).keyframe_ids.at(0);
+  ASSERT_OK(store_->connection().Exec(
+      "UPDATE keyframe_features SET data = zeroblob(64) WHERE keyframe_id = " +
+      std::to_string(id)));
+  auto read = store_->GetKeyframe(id);
+  EXPECT_EQ(read.status().code(), StatusCode::kDataLoss) << read.status().ToString();
+}
+
 // --- blobs ---
 
 TEST_F(SqliteMapStoreTest, BlobRoundTripAndReplace) {
