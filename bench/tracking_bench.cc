@@ -3,8 +3,9 @@
 // times as the counter p50_ms (Google Benchmark's own figure is the mean):
 //   BM_Extract      ORB detection + grid bucketing + descriptors + depth lookup of one frame
 //   BM_MatchPose    guided matching against the previous frame's features + PnP/refinement
-//   BM_TrackFrame   RgbdTracker::Track on consecutive frames (extract + match + pose +
-//                   keyframe bookkeeping), with extract/match/pose p50 from its own timings
+//   BM_TrackFrame   RgbdTracker::Track on consecutive frames (extract + local-map matching +
+//                   pose + keyframe/map bookkeeping), with extract/match/pose p50 from its own
+//                   timings and the mean local-map size
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -139,6 +140,7 @@ void BM_TrackFrame(benchmark::State& state) {
   RgbdTrackerOptions options;
   options.camera = s.camera;
   std::vector<double> total, extract, match, pose;
+  double map_points = 0;
   int64_t stamp = 0;
   size_t i = 0;
   StatusOr<RgbdTracker> tracker = RgbdTracker::Create(options);
@@ -160,11 +162,13 @@ void BM_TrackFrame(benchmark::State& state) {
     extract.push_back(r->timings.extract_ms);
     match.push_back(r->timings.match_ms);
     pose.push_back(r->timings.pose_ms);
+    map_points += static_cast<double>(tracker->num_map_points());
   }
   state.counters["p50_ms"] = P50(total);
   state.counters["extract_p50_ms"] = P50(extract);
   state.counters["match_p50_ms"] = P50(match);
   state.counters["pose_p50_ms"] = P50(pose);
+  state.counters["map_points"] = total.empty() ? 0 : map_points / static_cast<double>(total.size());
 }
 BENCHMARK(BM_TrackFrame)->Unit(benchmark::kMillisecond);
 

@@ -8,9 +8,11 @@
 
 #include <chrono>
 #include <filesystem>
+#include <iostream>
 #include <system_error>
 
 #include "server/query/store_map_query.h"
+#include "server/slam/bow_vocabulary.h"
 #include "storage/sqlite/sqlite_map_store.h"
 
 namespace semmap {
@@ -56,7 +58,22 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   SEMMAP_ASSIGN_OR_RETURN(server->writer_,
                           StorageWriter::Start(std::move(write_store), writer_options));
   server->query_ = std::make_unique<StoreMapQuery>(std::move(read_store));
-  server->ingest_ = std::make_unique<IngestManager>(server->writer_.get(), options.ingest);
+  std::shared_ptr<const BowVocabulary> vocabulary;
+  if (!options.vocabulary_path.empty()) {
+    StatusOr<BowVocabulary> loaded = BowVocabulary::Load(options.vocabulary_path);
+    if (loaded.ok()) {
+      vocabulary = std::make_shared<const BowVocabulary>(std::move(loaded).value());
+    } else if (!options.vocabulary_optional) {
+      Status stopped = server->writer_->Stop();
+      (void)stopped;
+      return loaded.status().WithContext("--vocabulary " + options.vocabulary_path);
+    } else {
+      std::cerr << "semmapd: no place-recognition vocabulary (" << loaded.status().ToString()
+                << "); loop closure by pose proximity only\n";
+    }
+  }
+  server->ingest_ =
+      std::make_unique<IngestManager>(server->writer_.get(), options.ingest, std::move(vocabulary));
   server->service_ = std::make_unique<MapServiceImpl>(server->ingest_.get(), server->query_.get());
 
   grpc::EnableDefaultHealthCheckService(true);

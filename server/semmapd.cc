@@ -41,6 +41,15 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   SEMMAP_ASSIGN_OR_RETURN(
       options->ingest.keyframes.rotation_weight,
       args.GetDouble("keyframe-rotation-weight", options->ingest.keyframes.rotation_weight));
+  const std::string vocabulary = args.Get("vocabulary", "");
+  if (vocabulary == "none") {
+    options->vocabulary_path.clear();
+  } else if (!vocabulary.empty()) {
+    options->vocabulary_path = vocabulary;
+    options->vocabulary_optional = false;
+  }
+  SEMMAP_ASSIGN_OR_RETURN(options->ingest.slam.verifier.max_xi,
+                          args.GetDouble("loop-max-xi", options->ingest.slam.verifier.max_xi));
   SEMMAP_ASSIGN_OR_RETURN(long long grace, args.GetInt("shutdown-grace-s", 5));
   options->shutdown_grace_s = static_cast<int>(grace);
   return options->Validate();
@@ -59,10 +68,19 @@ int main(int argc, char** argv) {
   args.AddFlag("keyframe-min-motion", "M", "keyframe motion threshold (default 0.10)");
   args.AddFlag("keyframe-rotation-weight", "M_PER_RAD",
                "rotation weight in the motion norm (default 0.5)");
+  args.AddFlag("vocabulary", "FILE|none",
+               "place-recognition vocabulary for loop closure (default: the bundled "
+               "models/orb_vocab.bin; none: loops by pose proximity only)");
+  args.AddFlag("loop-max-xi", "X",
+               "reject a loop whose candidate matches more than X times better than its "
+               "neighbouring keyframes (default 1.25)");
   args.AddFlag("shutdown-grace-s", "S", "seconds streams get to finish at shutdown (default 5)");
   args.AddSwitch("help", "print this help");
 
   semmap::ServerOptions options;
+  // The vocabulary that comes with the source tree; a missing file is a warning, not an error.
+  options.vocabulary_path = SEMMAP_DEFAULT_VOCABULARY;
+  options.vocabulary_optional = true;
   semmap::Status parsed = args.Parse(argc, argv);
   if (parsed.ok() && args.Has("help")) {
     std::cout << kUsage << args.Usage();

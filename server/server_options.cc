@@ -35,7 +35,9 @@ std::string ServerOptions::ToString() const {
       << " queue_capacity=" << ingest.queue_capacity
       << " max_frame_bytes=" << ingest.max_frame_bytes
       << " keyframe_min_motion=" << ingest.keyframes.min_motion
-      << " keyframe_rotation_weight=" << ingest.keyframes.rotation_weight;
+      << " keyframe_rotation_weight=" << ingest.keyframes.rotation_weight
+      << " vocabulary=" << (vocabulary_path.empty() ? "none" : vocabulary_path)
+      << " loop_max_xi=" << ingest.slam.verifier.max_xi;
   return out.str();
 }
 

@@ -16,6 +16,10 @@ struct ServerOptions {
   int shutdown_grace_s = 5;            // time in-flight streams get to finish at shutdown
   size_t storage_queue_capacity = 64;  // write batches waiting for the storage writer
   IngestOptions ingest;
+  // Place-recognition vocabulary of the SLAM back end. Empty: none (loops by pose proximity
+  // only). A path that cannot be loaded fails the start unless vocabulary_optional.
+  std::string vocabulary_path;
+  bool vocabulary_optional = false;
 
   Status Validate() const;
   std::string ToString() const;  // one line per option, for the start-up log

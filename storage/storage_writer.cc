@@ -10,11 +10,12 @@ namespace {
 
 // How many rows of each kind one batch contributed to a merged batch.
 struct BatchShape {
-  size_t frames = 0, keyframes = 0, links = 0, blobs = 0;
+  size_t frames = 0, keyframes = 0, links = 0, blobs = 0, pose_updates = 0;
 };
 
 BatchShape ShapeOf(const WriteBatch& b) {
-  return {b.frames.size(), b.keyframes.size(), b.links.size(), b.blobs.size()};
+  return {b.frames.size(), b.keyframes.size(), b.links.size(), b.blobs.size(),
+          b.pose_updates.size()};
 }
 
 template <typename T>
@@ -35,6 +36,7 @@ std::vector<WriteBatch> Split(WriteBatch&& merged, const std::vector<BatchShape>
     b.keyframes = TakeRange(merged.keyframes, offset.keyframes, shape.keyframes);
     b.links = TakeRange(merged.links, offset.links, shape.links);
     b.blobs = TakeRange(merged.blobs, offset.blobs, shape.blobs);
+    b.pose_updates = TakeRange(merged.pose_updates, offset.pose_updates, shape.pose_updates);
   }
   return batches;
 }

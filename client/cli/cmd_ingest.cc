@@ -30,6 +30,7 @@ struct IngestArgs {
   bool mono = false;
   std::string poses_path;
   std::string trajectory_out;
+  std::string online_trajectory_out;
   double rate_hz = 0;  // 0: as fast as the server takes frames
   double keyframe_min_motion = 0;
 };
@@ -60,7 +61,11 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
   parser.AddSwitch("mono", "monocular session: send colour only");
   parser.AddFlag("poses", "TUM_FILE",
                  "known poses (T_world_camera) for every frame: KNOWN_POSES mode");
-  parser.AddFlag("trajectory-out", "FILE", "write the server's pose of every frame (TUM format)");
+  parser.AddFlag("trajectory-out", "FILE",
+                 "write the stored pose of every frame after the stream ended (TUM format; "
+                 "includes the back end's loop-closure corrections)");
+  parser.AddFlag("online-trajectory-out", "FILE",
+                 "write the pose acknowledged for every frame while streaming (TUM format)");
   parser.AddFlag("rate", "HZ|max", "frames per second to send (default max)");
   parser.AddFlag("keyframe-min-motion", "M", "keyframe motion threshold for this session");
   const std::string usage = std::string(kUsage) + "\noptions:\n" + parser.Usage();
@@ -80,6 +85,7 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
   args.session = parser.Get("session");
   args.mono = parser.Has("mono");
   args.trajectory_out = parser.Get("trajectory-out");
+  args.online_trajectory_out = parser.Get("online-trajectory-out");
   if (parser.Has("poses")) args.poses_path = ResolvePosesPath(args.dir, parser.Get("poses"));
   if (const std::string rate = parser.Get("rate", "max"); rate != "max") {
     StatusOr<double> hz = parser.GetDouble("rate", 0);
@@ -173,13 +179,24 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
-  if (!args.trajectory_out.empty()) {
+  if (!args.online_trajectory_out.empty()) {
     std::vector<StampedPose> out;
     std::lock_guard lock(acks_mutex);
     for (const DatasetFrame& f : dataset->frames) {
       auto it = acked.find(f.seq);
       if (it != acked.end()) out.push_back({f.stamp_ns, it->second});
     }
+    if (Status written = WriteTumTrajectory(args.online_trajectory_out, out); !written.ok()) {
+      return ReportError(written);
+    }
+  }
+  if (!args.trajectory_out.empty()) {
+    StatusOr<std::vector<TrajectoryPose>> stored =
+        client.GetTrajectory(summary->map(), summary->session(), /*keyframes_only=*/false);
+    if (!stored.ok()) return ReportError(stored.status());
+    std::vector<StampedPose> out;
+    out.reserve(stored->size());
+    for (const TrajectoryPose& p : *stored) out.push_back({p.stamp_ns, p.T_world_camera});
     if (Status written = WriteTumTrajectory(args.trajectory_out, out); !written.ok()) {
       return ReportError(written);
     }
@@ -192,6 +209,8 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
                           {"frames_sent", sent},
                           {"frames_stored", summary->frames()},
                           {"keyframes", summary->keyframes()},
+                          {"lost_frames", summary->lost_frames()},
+                          {"loop_closures", summary->loop_closures()},
                           {"skipped_no_pose", skipped_no_pose},
                           {"seconds", seconds},
                           {"frames_per_second", fps}};
@@ -211,6 +230,10 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
     std::cout << "stored " << summary->frames() << " frames (" << summary->keyframes()
               << " keyframes) in map '" << summary->map() << "' session '" << summary->session()
               << "' at " << std::fixed << std::setprecision(1) << fps << " frames/s\n";
+    if (start.mode() == v1::SESSION_MODE_RGBD) {
+      std::cout << "tracking lost on " << summary->lost_frames() << " frames; "
+                << summary->loop_closures() << " loop closures\n";
+    }
     if (skipped_no_pose > 0) {
       std::cout << "skipped " << skipped_no_pose
                 << " frames with no pose in --poses within 0.2 s of their stamp\n";

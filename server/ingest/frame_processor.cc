@@ -2,6 +2,8 @@
 
 #include <string>
 
+#include "server/ingest/rgbd_processor.h"
+
 namespace semmap {
 
 StatusOr<FrameEstimate> KnownPosesProcessor::Process(const DecodedFrame& frame) {
@@ -17,12 +19,19 @@ StatusOr<FrameEstimate> KnownPosesProcessor::Process(const DecodedFrame& frame) 
 }
 
 StatusOr<std::unique_ptr<FrameProcessor>> MakeFrameProcessor(SessionMode mode,
-                                                             const KeyframeSelectorOptions& kf) {
+                                                             const KeyframeSelectorOptions& kf,
+                                                             const RgbdTrackerOptions& tracker,
+                                                             const CameraCalibration& camera) {
   switch (mode) {
     case SessionMode::kKnownPoses:
       return std::unique_ptr<FrameProcessor>(std::make_unique<KnownPosesProcessor>(kf));
-    case SessionMode::kRgbd:
-      return UnimplementedError("RGBD sessions (visual SLAM) are not implemented yet");
+    case SessionMode::kRgbd: {
+      RgbdTrackerOptions options = tracker;
+      options.keyframes = kf;
+      SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<RgbdProcessor> processor,
+                              RgbdProcessor::Create(options, camera));
+      return std::unique_ptr<FrameProcessor>(std::move(processor));
+    }
     case SessionMode::kMono:
       return UnimplementedError("MONO sessions (learned visual odometry) are not implemented yet");
   }

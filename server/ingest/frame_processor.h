@@ -8,6 +8,8 @@
 
 #include "common/map_types.h"
 #include "common/status.h"
+#include "server/odometry/feature_extractor.h"
+#include "server/odometry/rgbd_tracker.h"
 #include "server/sensor/image_decoding.h"
 #include "server/slam/keyframe_selector.h"
 
@@ -24,12 +26,19 @@ struct DecodedFrame {
 struct FrameEstimate {
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
   bool is_keyframe = false;
+  bool lost = false;  // visual tracking failed: the pose is the last good one
+  // Visual modes: information of the pose w.r.t. the keyframe it was tracked from, and the
+  // new keyframe's features (for loop closure and storage) when is_keyframe.
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
+  std::shared_ptr<const FrameFeatures> keyframe_features;
 };
 
 class FrameProcessor {
  public:
   virtual ~FrameProcessor() = default;
   virtual StatusOr<FrameEstimate> Process(const DecodedFrame& frame) = 0;
+  // The back end moved the map: continue in the corrected frame (visual modes).
+  virtual void ApplyCorrection(const Eigen::Isometry3d& /*T_corrected_world*/) {}
 };
 
 // KNOWN_POSES: the client's pose is the truth; only the keyframe decision is ours.
@@ -42,8 +51,11 @@ class KnownPosesProcessor final : public FrameProcessor {
   KeyframeSelector selector_;
 };
 
-// UNIMPLEMENTED for modes this server cannot run yet (never a faked pose).
+// UNIMPLEMENTED for modes this server cannot run yet (never a faked pose). `tracker` configures
+// RGBD sessions (its camera is replaced by `camera`, its keyframes by `kf`).
 StatusOr<std::unique_ptr<FrameProcessor>> MakeFrameProcessor(SessionMode mode,
-                                                             const KeyframeSelectorOptions& kf);
+                                                             const KeyframeSelectorOptions& kf,
+                                                             const RgbdTrackerOptions& tracker,
+                                                             const CameraCalibration& camera);
 
 }  // namespace semmap

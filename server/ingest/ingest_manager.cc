@@ -4,8 +4,9 @@
 
 namespace semmap {
 
-IngestManager::IngestManager(StorageWriter* writer, IngestOptions options)
-    : writer_(writer), options_(std::move(options)) {}
+IngestManager::IngestManager(StorageWriter* writer, IngestOptions options,
+                             std::shared_ptr<const BowVocabulary> vocabulary)
+    : writer_(writer), options_(std::move(options)), vocabulary_(std::move(vocabulary)) {}
 
 IngestManager::~IngestManager() {
   BeginShutdown();
@@ -16,7 +17,8 @@ StatusOr<std::shared_ptr<IngestSession>> IngestManager::Open(std::shared_ptr<Ing
   std::lock_guard lock(mutex_);
   if (shutting_down_) return UnavailableError("the server is shutting down");
   ReapFinishedLocked();
-  auto session = std::make_shared<IngestSession>(std::move(sink), writer_, options_);
+  auto session = std::make_shared<IngestSession>(
+      std::move(sink), writer_, options_, [this](int64_t map_id) { return BackendFor(map_id); });
   sessions_.push_back(session);
   return session;
 }
@@ -35,6 +37,23 @@ void IngestManager::Join() {
   }
   // Destroying the last reference joins the worker; a reactor may still hold one briefly.
   sessions.clear();
+  std::map<int64_t, std::shared_ptr<SlamBackend>> backends;
+  {
+    std::lock_guard lock(backends_mutex_);
+    backends.swap(backends_);
+  }
+  for (auto& [map_id, backend] : backends) backend->Stop();  // drains, writes, joins
+}
+
+StatusOr<std::shared_ptr<SlamBackend>> IngestManager::BackendFor(int64_t map_id) {
+  std::lock_guard lock(backends_mutex_);
+  auto it = backends_.find(map_id);
+  if (it != backends_.end()) return it->second;
+  SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SlamBackend> backend,
+                          SlamBackend::Start(map_id, options_.slam, vocabulary_, writer_));
+  std::shared_ptr<SlamBackend> shared = std::move(backend);
+  backends_.emplace(map_id, shared);
+  return shared;
 }
 
 size_t IngestManager::active_sessions() {

@@ -1,7 +1,8 @@
-// Owns the live ingest sessions of a server: opens them, stops them all at shutdown and joins
-// their worker threads off the network threads.
+// Owns the live ingest sessions of a server and the SLAM back end of each map they stream into:
+// opens them, stops them all at shutdown and joins their worker threads off the network threads.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -13,7 +14,9 @@ namespace semmap {
 
 class IngestManager {
  public:
-  IngestManager(StorageWriter* writer, IngestOptions options);
+  // `vocabulary` (may be null: no place recognition) is shared by every map's back end.
+  IngestManager(StorageWriter* writer, IngestOptions options,
+                std::shared_ptr<const BowVocabulary> vocabulary = nullptr);
   ~IngestManager();
 
   // UNAVAILABLE once shutdown has begun.
@@ -26,12 +29,17 @@ class IngestManager {
 
  private:
   void ReapFinishedLocked();
+  StatusOr<std::shared_ptr<SlamBackend>> BackendFor(int64_t map_id);
 
   StorageWriter* writer_;
   const IngestOptions options_;
   std::mutex mutex_;
   bool shutting_down_ = false;
   std::vector<std::shared_ptr<IngestSession>> sessions_;
+  const std::shared_ptr<const BowVocabulary> vocabulary_;
+  std::mutex backends_mutex_;
+  // Back ends live as long as the server: a map's graph keeps growing across its sessions.
+  std::map<int64_t, std::shared_ptr<SlamBackend>> backends_;
 };
 
 }  // namespace semmap

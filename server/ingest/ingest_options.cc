@@ -12,7 +12,13 @@ Status IngestOptions::Validate() const {
   if (max_frame_bytes < 1024) {
     return InvalidArgumentError("max frame bytes must be at least 1024");
   }
-  return keyframes.Validate().WithContext("keyframe options");
+  SEMMAP_RETURN_IF_ERROR(keyframes.Validate().WithContext("keyframe options"));
+  // The camera is the session's: validate the rest against a plausible one.
+  RgbdTrackerOptions probe = tracker;
+  probe.camera = CameraCalibration{640, 480, 525, 525, 319.5, 239.5};
+  probe.keyframes = keyframes;
+  SEMMAP_RETURN_IF_ERROR(probe.Validate().WithContext("tracker options"));
+  return slam.Validate().WithContext("slam options");
 }
 
 }  // namespace semmap

@@ -3,7 +3,9 @@
 #include <cstddef>
 
 #include "common/status.h"
+#include "server/odometry/rgbd_tracker.h"
 #include "server/slam/keyframe_selector.h"
+#include "server/slam/slam_backend.h"
 
 namespace semmap {
 
@@ -14,6 +16,10 @@ struct IngestOptions {
   // Largest accepted image payload of one frame (colour + depth bytes).
   size_t max_frame_bytes = 48u << 20;
   KeyframeSelectorOptions keyframes;
+  // RGBD sessions' front end (its camera and keyframe options come from the session).
+  RgbdTrackerOptions tracker;
+  // The per-map back end of RGBD sessions (loop closure, pose graph).
+  SlamBackendOptions slam;
   Status Validate() const;
 };
 

@@ -8,6 +8,7 @@
 #include "common/time_util.h"
 #include "server/ingest/name_validation.h"
 #include "server/sensor/image_decoding.h"
+#include "server/slam/feature_codec.h"
 
 namespace semmap {
 namespace {
@@ -16,6 +17,15 @@ using Clock = std::chrono::steady_clock;
 
 double MsSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// The information of a visual estimate, or a weak one (unit, i.e. about one pixel's worth
+// per unit of motion) when the mode measures none, so the pose graph stays well posed.
+Eigen::Matrix<double, 6, 6> OdometryInformation(const FrameEstimate& estimate) {
+  if (estimate.information.allFinite() && estimate.information.diagonal().minCoeff() > 0) {
+    return estimate.information;
+  }
+  return Eigen::Matrix<double, 6, 6>::Identity();
 }
 
 constexpr int kStopCancelled = 1;
@@ -34,11 +44,12 @@ std::string GeneratedSessionName() {
 }  // namespace
 
 IngestSession::IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer,
-                             IngestOptions options)
+                             IngestOptions options, SlamBackendProvider backends)
     : sink_(std::move(sink)),
       writer_(writer),
       options_(std::move(options)),
       queue_(options_.queue_capacity),
+      backends_(std::move(backends)),
       started_at_(std::chrono::steady_clock::now()) {
   worker_ = std::thread([this] { Run(); });
 }
@@ -116,7 +127,8 @@ Status IngestSession::HandleStart(const IngestStartRequest& start) {
   if (start.keyframe_min_motion != 0) kf.min_motion = start.keyframe_min_motion;
   if (start.keyframe_rotation_weight != 0) kf.rotation_weight = start.keyframe_rotation_weight;
   SEMMAP_RETURN_IF_ERROR(kf.Validate().WithContext("start.keyframes"));
-  SEMMAP_ASSIGN_OR_RETURN(processor_, MakeFrameProcessor(*start.mode, kf));
+  SEMMAP_ASSIGN_OR_RETURN(processor_,
+                          MakeFrameProcessor(*start.mode, kf, options_.tracker, start.camera));
 
   SessionInfo created;
   Status status = writer_->RunSync([&](MapStore& store) -> Status {
@@ -144,6 +156,13 @@ Status IngestSession::HandleStart(const IngestStartRequest& start) {
     return InternalError("could not generate a unique session name");
   });
   SEMMAP_RETURN_IF_ERROR(status);
+  if (*start.mode == SessionMode::kRgbd && backends_) {
+    SEMMAP_ASSIGN_OR_RETURN(backend_, backends_(created.map_id));
+    backend_->RegisterSession(created.id, created.camera, [this](const Eigen::Isometry3d& T) {
+      std::lock_guard lock(correction_mutex_);
+      pending_correction_ = pending_correction_ ? T * *pending_correction_ : T;
+    });
+  }
   session_ = created;
   sink_->OnStarted(*session_);
   return OkStatus();
@@ -192,13 +211,21 @@ Status IngestSession::HandleFrame(IngestFrame& frame) {
   const Clock::time_point t0 = Clock::now();
   SEMMAP_ASSIGN_OR_RETURN(DecodedFrame decoded, Decode(frame));
   decode_ms_.Add(MsSince(t0));
+  ApplyPendingCorrection();
   const Clock::time_point t1 = Clock::now();
   SEMMAP_ASSIGN_OR_RETURN(FrameEstimate estimate, processor_->Process(decoded));
   tracking_ms_.Add(MsSince(t1));
   last_seq_ = frame.seq;
+  const std::optional<uint64_t> previous_keyframe_seq = last_keyframe_seq_;
+  const Eigen::Isometry3d T_world_previous_keyframe = last_keyframe_pose_;
   SEMMAP_RETURN_IF_ERROR(SubmitFrame(decoded, frame, estimate));
+  if (backend_) {
+    SEMMAP_RETURN_IF_ERROR(
+        FeedBackend(decoded, estimate, previous_keyframe_seq, T_world_previous_keyframe));
+  }
   ++frames_;
   if (estimate.is_keyframe) ++keyframes_;
+  if (estimate.lost) ++lost_frames_;
 
   FrameAckInfo ack;
   ack.seq = frame.seq;
@@ -232,6 +259,10 @@ Status IngestSession::SubmitFrame(const DecodedFrame& frame, const IngestFrame& 
       SEMMAP_ASSIGN_OR_RETURN(kf.depth, EncodeDepthForStorage(*wire.depth, *frame.depth));
       kf.depth_scale = frame.depth->depth_scale;
     }
+    if (estimate.keyframe_features) {
+      kf.features_format = std::string(kFeatureCodecFormat);
+      kf.features = EncodeFeatures(*estimate.keyframe_features);
+    }
     batch.keyframes.push_back(std::move(kf));
     if (last_keyframe_seq_) {
       // Odometry edge from the previous keyframe; ids are resolved by the store.
@@ -243,6 +274,7 @@ Status IngestSession::SubmitFrame(const DecodedFrame& frame, const IngestFrame& 
       link.to_session_id = session_->id;
       link.to_seq = pose.seq;
       link.T_from_to = last_keyframe_pose_.inverse() * estimate.T_world_camera;
+      link.information = OdometryInformation(estimate);
       batch.links.push_back(link);
     }
     last_keyframe_seq_ = frame.seq;
@@ -291,12 +323,64 @@ void IngestSession::OnCommitted(const Status& status, uint64_t seq,
   sink_->OnProgress(progress);
 }
 
+Status IngestSession::FeedBackend(const DecodedFrame& frame, const FrameEstimate& estimate,
+                                  const std::optional<uint64_t>& previous_keyframe_seq,
+                                  const Eigen::Isometry3d& T_world_previous_keyframe) {
+  const int64_t seq = static_cast<int64_t>(frame.seq);
+  if (estimate.is_keyframe && estimate.keyframe_features) {
+    KeyframeEvent event;
+    event.session_id = session_->id;
+    event.seq = seq;
+    event.T_world_keyframe = estimate.T_world_camera;
+    event.features = estimate.keyframe_features;
+    if (previous_keyframe_seq) {
+      event.previous_seq = static_cast<int64_t>(*previous_keyframe_seq);
+      event.T_previous_keyframe = T_world_previous_keyframe.inverse() * estimate.T_world_camera;
+    }
+    event.information = OdometryInformation(estimate);
+    SEMMAP_RETURN_IF_ERROR(backend_->AddKeyframe(std::move(event)));
+  }
+  if (!last_keyframe_seq_) return OkStatus();  // nothing to anchor to yet
+  FrameAnchorEvent anchor;
+  anchor.session_id = session_->id;
+  anchor.seq = seq;
+  anchor.anchor_seq = static_cast<int64_t>(*last_keyframe_seq_);
+  anchor.T_anchor_frame = last_keyframe_pose_.inverse() * estimate.T_world_camera;
+  anchor.T_world_frame = estimate.T_world_camera;
+  return backend_->AddFrame(anchor);
+}
+
+void IngestSession::ApplyPendingCorrection() {
+  std::optional<Eigen::Isometry3d> correction;
+  {
+    std::lock_guard lock(correction_mutex_);
+    correction.swap(pending_correction_);
+  }
+  if (!correction) return;
+  processor_->ApplyCorrection(*correction);
+  last_keyframe_pose_ = *correction * last_keyframe_pose_;
+}
+
 std::optional<uint64_t> IngestSession::durable_seq() const {
   std::lock_guard lock(commit_mutex_);
   return durable_seq_;
 }
 
 void IngestSession::Finish(Status status) {
+  // The back end's writes for this session (loop links, re-anchored poses) land before the
+  // final status too, so the stored trajectory is final when the client hears it.
+  uint64_t loop_closures = 0;
+  std::vector<LatencySummary> backend_stages;
+  if (backend_) {
+    backend_->UnregisterSession(session_->id);
+    Status drained = backend_->Drain();
+    if (status.ok() && !drained.ok()) status = drained;
+    const SlamBackendStats stats = backend_->stats();
+    for (const LoopClosureInfo& loop : stats.loops) {
+      if (loop.query_session_id == session_->id) ++loop_closures;
+    }
+    backend_stages = {stats.keyframe_ms, stats.optimise_ms};
+  }
   // Whatever was submitted is committed (or failed) before the client hears the final status,
   // so the summary's durable_seq is exact.
   {
@@ -314,6 +398,8 @@ void IngestSession::Finish(Status status) {
     summary.session = session_->name;
   }
   summary.frames = frames_.load();
+  summary.lost_frames = lost_frames_;
+  summary.loop_closures = loop_closures;
   summary.keyframes = keyframes_.load();
   summary.durable_seq = durable_seq();
   summary.duration_s =
@@ -324,6 +410,7 @@ void IngestSession::Finish(Status status) {
     summary.stages.push_back(storage_commit_ms_.Summarize());
   }
   summary.stages.push_back(frame_ms_.Summarize());
+  for (LatencySummary& stage : backend_stages) summary.stages.push_back(std::move(stage));
   if (!status.ok() && summary.durable_seq) {
     status = Status(status.code(), status.message() + " (frames up to seq " +
                                        std::to_string(*summary.durable_seq) + " are stored)");

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -15,13 +16,19 @@
 #include "server/ingest/frame_processor.h"
 #include "server/ingest/ingest_options.h"
 #include "server/ingest/ingest_types.h"
+#include "server/slam/slam_backend.h"
 #include "storage/storage_writer.h"
 
 namespace semmap {
 
+// The map's SLAM back end for visual sessions (created on first use by the owner).
+using SlamBackendProvider = std::function<StatusOr<std::shared_ptr<SlamBackend>>(int64_t map_id)>;
+
 class IngestSession {
  public:
-  IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer, IngestOptions options);
+  // `backends` may be empty: visual sessions then run their front end alone (no loop closure).
+  IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer, IngestOptions options,
+                SlamBackendProvider backends = nullptr);
   ~IngestSession();  // stops and joins the worker
   IngestSession(const IngestSession&) = delete;
   IngestSession& operator=(const IngestSession&) = delete;
@@ -47,6 +54,11 @@ class IngestSession {
   void OnCommitted(const Status& status, uint64_t seq,
                    std::chrono::steady_clock::time_point submitted_at);
   void Finish(Status status);
+  // Hands the frame (and its keyframe) to the back end, after its write was submitted.
+  Status FeedBackend(const DecodedFrame& frame, const FrameEstimate& estimate,
+                     const std::optional<uint64_t>& previous_keyframe_seq,
+                     const Eigen::Isometry3d& T_world_previous_keyframe);
+  void ApplyPendingCorrection();
   std::optional<uint64_t> durable_seq() const;
 
   std::shared_ptr<IngestSink> sink_;
@@ -57,6 +69,11 @@ class IngestSession {
   // Worker-thread state.
   std::optional<SessionInfo> session_;
   std::unique_ptr<FrameProcessor> processor_;
+  SlamBackendProvider backends_;
+  std::shared_ptr<SlamBackend> backend_;
+  // Corrections from the back end's thread, applied before the next frame is tracked.
+  std::mutex correction_mutex_;
+  std::optional<Eigen::Isometry3d> pending_correction_;
   std::optional<uint64_t> last_seq_;
   std::optional<uint64_t> last_keyframe_seq_;
   Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
@@ -79,6 +96,7 @@ class IngestSession {
   std::atomic<uint64_t> received_{0};
   std::atomic<uint64_t> frames_{0};  // read by commit callbacks for progress
   std::atomic<uint64_t> keyframes_{0};
+  uint64_t lost_frames_ = 0;
   std::atomic<int> stop_reason_{0};  // 0 none, 1 cancelled, 2 server stop
   std::atomic<bool> finished_{false};
   std::thread worker_;

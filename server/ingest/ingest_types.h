@@ -67,6 +67,8 @@ struct IngestSummaryInfo {
   std::string session;
   uint64_t frames = 0;
   uint64_t keyframes = 0;
+  uint64_t lost_frames = 0;    // visual tracking failed (pose held at the last good one)
+  uint64_t loop_closures = 0;  // loops the back end accepted with this session's keyframes
   std::optional<uint64_t> durable_seq;
   double duration_s = 0;
   // Per-stage latency inside the server: decode, tracking, keyframe, storage_commit, frame.

@@ -1,14 +1,18 @@
-// RGB-D tracking front end: every frame is tracked against the current reference keyframe
-// (guided matching around the constant-velocity prediction first, full matching as the
-// fallback), PnP + motion-only refinement give its pose, and a frame becomes the new reference
-// when it moved far enough (KeyframeSelector) or when the tracked inliers fall below a fraction
-// of what the reference had. When tracking fails, the last few keyframes are tried
+// RGB-D tracking front end: every frame is tracked against the local map (the fused 3D points
+// of the last few keyframes, LocalMap) by projection around the constant-velocity prediction,
+// PnP-RANSAC and a motion-only refinement on reprojection and inverse-depth errors
+// (RefinePoseRgbd). When that finds too little support, the reference keyframe is matched
+// directly (guided, then full matching) and the map is tried again from that pose. A frame
+// becomes a keyframe (and adds its points to the map) when it moved far enough
+// (KeyframeSelector) or when the tracked inliers fall below a fraction of what the first frame
+// after the last keyframe had. When tracking fails, the last few keyframes are tried
 // (relocalisation) before the frame is reported lost.
 #pragma once
 
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <optional>
 #include <string_view>
 #include <vector>
@@ -17,7 +21,9 @@
 #include "common/status.h"
 #include "server/odometry/feature_extractor.h"
 #include "server/odometry/feature_matcher.h"
+#include "server/odometry/local_map.h"
 #include "server/odometry/motion_estimator.h"
+#include "server/odometry/rgbd_refiner.h"
 #include "server/sensor/image_decoding.h"
 #include "server/slam/keyframe_selector.h"
 
@@ -29,6 +35,11 @@ struct RgbdTrackerOptions {
   FeatureMatcherOptions matcher;
   MotionEstimatorOptions motion;
   KeyframeSelectorOptions keyframes;
+  LocalMapOptions local_map;
+  RgbdRefinerOptions refiner;
+  // Second projection of the local map at the refined pose, with this search radius (pixels),
+  // to collect the matches the prediction missed; 0 disables it.
+  double map_refine_radius_px = 4.0;
   // New keyframe when the inliers against the reference fall below this fraction of the
   // inliers of the first frame tracked against it.
   double min_inlier_fraction = 0.4;
@@ -59,8 +70,14 @@ struct TrackingResult {
   int num_matches = 0;       // matches used for the accepted (or last tried) estimate
   int num_inliers = 0;
   TrackingState state = TrackingState::kTracking;
-  bool used_guided_matching = false;
+  bool used_guided_matching = false;  // the pose came from the local map or guided matching
   TrackingTimings timings;
+  // When is_keyframe: the new keyframe's features (3D points in its own camera frame), shared
+  // with the back end (loop closure, place recognition), never modified after publication.
+  std::shared_ptr<const FrameFeatures> keyframe_features;
+  // Information (as MotionEstimate::information) of this frame's pose estimate w.r.t. the
+  // keyframe it was tracked against; zero when lost or for the first frame.
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
 };
 
 class RgbdTracker {
@@ -68,17 +85,25 @@ class RgbdTracker {
   // INVALID_ARGUMENT for invalid options or calibration.
   static StatusOr<RgbdTracker> Create(const RgbdTrackerOptions& options);
 
-  // `image`: 8-bit grey or BGR of the camera's size; `depth`: registered depth of that size.
-  // INVALID_ARGUMENT for bad input (the tracker's state is unchanged); losing track is not an
-  // error but state kLost. Stamps must increase.
+  // `image`: 8-bit grey or BGR of the camera's size; `depth`: registered depth of that size, or
+  // empty (a sensor dropout): the frame is tracked from its 2D features but never becomes a
+  // keyframe (and before the first keyframe it is kLost). INVALID_ARGUMENT for bad input (the
+  // tracker's state is unchanged); losing track is not an error but state kLost. Stamps must
+  // increase.
   StatusOr<TrackingResult> Track(const cv::Mat& image, const DecodedDepth& depth, int64_t stamp_ns);
 
+  // The back end moved the map: every pose the tracker holds (keyframes, local map points,
+  // last pose, prediction) is re-expressed as T_corrected_world * T_world_x, so tracking
+  // continues in the corrected frame.
+  void ApplyCorrection(const Eigen::Isometry3d& T_corrected_world);
+
   int num_keyframes() const { return num_keyframes_; }
+  size_t num_map_points() const { return map_.size(); }
   const RgbdTrackerOptions& options() const { return options_; }
 
  private:
   struct Keyframe {
-    FrameFeatures features;
+    std::shared_ptr<const FrameFeatures> features;
     std::vector<int> depth_index;  // keypoints with a 3D point
     cv::Mat depth_descriptors;     // their descriptor rows, in depth_index order
     Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
@@ -90,11 +115,32 @@ class RgbdTracker {
     double match_ms = 0;
     double pose_ms = 0;
   };
+  // An accepted pose of the current frame.
+  struct Solution {
+    Eigen::Isometry3d T_world_current = Eigen::Isometry3d::Identity();
+    Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+    int num_matches = 0;
+    int num_inliers = 0;
+    std::vector<int> point_of_keypoint;  // map point of each current keypoint (-1); may be empty
+    std::vector<int> visible;            // map points predicted in view
+    std::vector<int> found;              // map points matched as inliers
+  };
 
   RgbdTracker(RgbdTrackerOptions options, FeatureExtractor extractor)
       : options_(std::move(options)),
         extractor_(std::move(extractor)),
-        selector_(options_.keyframes) {}
+        selector_(options_.keyframes),
+        map_(options_.local_map, options_.camera) {}
+
+  // Projection matching against the local map around T_world_guess, PnP-RANSAC and the RGB-D
+  // refinement (then a second, tighter projection). nullopt: too little support.
+  StatusOr<std::optional<Solution>> TrackLocalMap(const FrameFeatures& current,
+                                                  const Eigen::Isometry3d& T_world_guess,
+                                                  double* match_ms, double* pose_ms) const;
+  // Map points predicted in view of T_world_camera (indices) with their predicted pixels.
+  void ProjectMap(const Eigen::Isometry3d& T_world_camera,
+                  std::vector<std::optional<cv::Point2f>>* predicted,
+                  std::vector<int>* visible) const;
 
   // Full matching of `keyframe` against `current` and PnP.
   StatusOr<Attempt> TrackFull(const Keyframe& keyframe, const FrameFeatures& current,
@@ -104,11 +150,14 @@ class RgbdTracker {
   StatusOr<Attempt> Estimate(const Keyframe& keyframe, const FrameFeatures& current,
                              const std::vector<cv::DMatch>& matches,
                              const std::optional<Eigen::Isometry3d>& guess) const;
-  void MakeKeyframe(FrameFeatures features, const Eigen::Isometry3d& T_world_camera);
+  std::shared_ptr<const FrameFeatures> MakeKeyframe(FrameFeatures features,
+                                                    const Eigen::Isometry3d& T_world_camera,
+                                                    const std::vector<int>& point_of_keypoint);
 
   RgbdTrackerOptions options_;
   FeatureExtractor extractor_;
   KeyframeSelector selector_;
+  LocalMap map_;
   std::deque<Keyframe> keyframes_;  // back() is the reference
   int num_keyframes_ = 0;
   std::optional<Eigen::Isometry3d> T_world_last_;

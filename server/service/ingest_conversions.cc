@@ -108,6 +108,8 @@ void ToProto(const IngestSummaryInfo& s, v1::IngestSummary* out) {
   out->set_keyframes(s.keyframes);
   if (s.durable_seq) out->set_durable_seq(*s.durable_seq);
   out->set_duration_s(s.duration_s);
+  out->set_lost_frames(s.lost_frames);
+  out->set_loop_closures(s.loop_closures);
   for (const LatencySummary& stage : s.stages) {
     v1::StageLatency* wire = out->add_stages();
     wire->set_name(stage.name);

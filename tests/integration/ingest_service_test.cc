@@ -127,8 +127,6 @@ TEST_F(IngestServiceTest, DuplicateSessionIsAlreadyExists) {
 
 TEST_F(IngestServiceTest, UnimplementedModesAreRefused) {
   v1::IngestStart start = KnownPosesStart("lab", "x");
-  start.set_mode(v1::SESSION_MODE_RGBD);
-  EXPECT_EQ(Stream(start, 1).code(), StatusCode::kUnimplemented);
   start.set_mode(v1::SESSION_MODE_MONO);
   EXPECT_EQ(Stream(start, 1).code(), StatusCode::kUnimplemented);
   start.set_mode(v1::SESSION_MODE_UNSPECIFIED);

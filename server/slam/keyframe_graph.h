@@ -1,0 +1,72 @@
+// The back end's keyframe graph of one map: keyframes of every session with their current
+// world poses, odometry edges between a session's consecutive keyframes and loop edges, and the
+// questions loop closure asks of it (session neighbours, keyframes near a pose). Turns itself
+// into a pose graph and takes the optimised poses back. Single-threaded (the back end's worker).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/status.h"
+#include "server/odometry/feature_extractor.h"
+#include "server/slam/pose_graph.h"
+
+namespace semmap {
+
+struct GraphKeyframe {
+  int64_t session_id = 0;
+  int64_t seq = 0;
+  Eigen::Isometry3d T_world_keyframe = Eigen::Isometry3d::Identity();
+  std::shared_ptr<const FrameFeatures> features;
+  const CameraCalibration* camera = nullptr;  // the session's, owned by the back end
+  int index_in_session = 0;                   // 0, 1, 2, ... in the session's order
+};
+
+struct GraphEdge {
+  int from = 0, to = 0;  // node indices
+  Eigen::Isometry3d T_from_to = Eigen::Isometry3d::Identity();
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
+  PoseGraphEdgeKind kind = PoseGraphEdgeKind::kOdometry;
+};
+
+class KeyframeGraph {
+ public:
+  // Appends a keyframe (the next of its session) and returns its node index.
+  int Add(GraphKeyframe keyframe);
+  void AddEdge(const GraphEdge& edge) { edges_.push_back(edge); }
+
+  int size() const { return static_cast<int>(nodes_.size()); }
+  const GraphKeyframe& node(int index) const { return nodes_[static_cast<size_t>(index)]; }
+  const std::vector<GraphEdge>& edges() const { return edges_; }
+  std::optional<int> Find(int64_t session_id, int64_t seq) const;
+  // The session's keyframes within `radius` places of `index` in its order (not itself).
+  std::vector<int> SessionNeighbours(int index, int radius) const;
+  // The latest keyframe of a session, if any.
+  std::optional<int> LastOfSession(int64_t session_id) const;
+  // Keyframes whose camera centre lies within radius_m of T's and whose optical axis is within
+  // max_angle_rad of T's, nearest first; `skip` filters candidates out.
+  std::vector<int> Near(const Eigen::Isometry3d& T_world_camera, double radius_m,
+                        double max_angle_rad, const std::function<bool(int)>& skip) const;
+
+  // Optimises every pose; in each connected component the oldest keyframe stays fixed (a
+  // session that never closed a loop with the others keeps its own frame). Returns the
+  // solver's result; node poses are replaced on success.
+  StatusOr<PoseGraphResult> Optimise(const PoseGraphOptions& options);
+
+ private:
+  std::vector<int> ComponentRoots() const;
+
+  std::vector<GraphKeyframe> nodes_;
+  std::vector<GraphEdge> edges_;
+  std::map<std::pair<int64_t, int64_t>, int> by_session_seq_;
+  std::map<int64_t, std::vector<int>> by_session_;  // node indices in session order
+};
+
+}  // namespace semmap

@@ -1,0 +1,356 @@
+#include "server/slam/slam_backend.h"
+
+#include <chrono>
+#include <cmath>
+#include <set>
+#include <string>
+#include <utility>
+
+namespace semmap {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Poses closer than this are the same for storage (re-anchoring writes only real moves).
+bool Moved(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a.matrix() - b.matrix()).cwiseAbs().maxCoeff() > 1e-9;
+}
+
+}  // namespace
+
+Status SlamBackendOptions::Validate() const {
+  SEMMAP_RETURN_IF_ERROR(verifier.Validate().WithContext("slam verifier"));
+  SEMMAP_RETURN_IF_ERROR(pose_graph.Validate().WithContext("slam pose graph"));
+  if (queue_capacity < 1 || queue_capacity > 100000) {
+    return InvalidArgumentError("slam queue_capacity must be in 1..100000");
+  }
+  if (exclude_recent < 1) return InvalidArgumentError("slam exclude_recent must be >= 1");
+  if (!(local_radius_m >= 0) || !(local_max_angle_deg >= 0 && local_max_angle_deg <= 180)) {
+    return InvalidArgumentError("slam local_radius_m >= 0 and local_max_angle_deg in [0, 180]");
+  }
+  if (max_local_candidates < 0 || max_global_candidates < 0) {
+    return InvalidArgumentError("slam candidate counts must be >= 0");
+  }
+  if (!(min_global_score >= 0 && min_global_score <= 1) ||
+      !(min_global_score_ratio >= 0 && min_global_score_ratio <= 1)) {
+    return InvalidArgumentError("slam global score thresholds must be in [0, 1]");
+  }
+  if (xi_neighbours < 1) return InvalidArgumentError("slam xi_neighbours must be >= 1");
+  return OkStatus();
+}
+
+StatusOr<std::unique_ptr<SlamBackend>> SlamBackend::Start(
+    int64_t map_id, SlamBackendOptions options, std::shared_ptr<const BowVocabulary> vocabulary,
+    StorageWriter* writer) {
+  SEMMAP_RETURN_IF_ERROR(options.Validate());
+  if (writer == nullptr) return InvalidArgumentError("slam back end needs a storage writer");
+  return std::unique_ptr<SlamBackend>(
+      new SlamBackend(map_id, std::move(options), std::move(vocabulary), writer));
+}
+
+SlamBackend::SlamBackend(int64_t map_id, SlamBackendOptions options,
+                         std::shared_ptr<const BowVocabulary> vocabulary, StorageWriter* writer)
+    : map_id_(map_id),
+      options_(std::move(options)),
+      vocabulary_(std::move(vocabulary)),
+      writer_(writer),
+      queue_(options_.queue_capacity) {
+  worker_ = std::thread([this] { Run(); });
+}
+
+SlamBackend::~SlamBackend() { Stop(); }
+
+void SlamBackend::Stop() {
+  stopped_.store(true);
+  queue_.Shutdown();  // the worker drains what is queued first
+  if (worker_.joinable()) worker_.join();
+}
+
+void SlamBackend::RegisterSession(int64_t session_id, const CameraCalibration& camera,
+                                  CorrectionCallback on_correction) {
+  std::lock_guard lock(mutex_);
+  SessionState& state = sessions_[session_id];
+  state.camera = camera;
+  state.on_correction = std::move(on_correction);
+}
+
+void SlamBackend::UnregisterSession(int64_t session_id) {
+  std::lock_guard lock(mutex_);
+  const auto it = sessions_.find(session_id);
+  if (it != sessions_.end()) it->second.on_correction = nullptr;
+}
+
+Status SlamBackend::AddKeyframe(KeyframeEvent event) {
+  if (!event.features) return InvalidArgumentError("keyframe event without features");
+  if (!queue_.Push(Event(std::move(event)))) return UnavailableError("slam back end stopped");
+  std::lock_guard lock(mutex_);
+  stats_.queue_high_water = std::max(stats_.queue_high_water, queue_.size());
+  return OkStatus();
+}
+
+Status SlamBackend::AddFrame(FrameAnchorEvent event) {
+  if (!queue_.Push(Event(std::move(event)))) return UnavailableError("slam back end stopped");
+  return OkStatus();
+}
+
+Status SlamBackend::Drain() {
+  auto done = std::make_shared<std::promise<Status>>();
+  std::future<Status> result = done->get_future();
+  if (!queue_.Push(Event(DrainRequest{done}))) {
+    return UnavailableError("slam back end stopped");
+  }
+  return result.get();
+}
+
+SlamBackendStats SlamBackend::stats() const {
+  std::lock_guard lock(mutex_);
+  SlamBackendStats s = stats_;
+  s.keyframe_ms = keyframe_ms_.Summarize();
+  s.optimise_ms = optimise_ms_.Summarize();
+  return s;
+}
+
+void SlamBackend::Run() {
+  while (std::optional<Event> event = queue_.Pop()) {
+    if (auto* kf = std::get_if<KeyframeEvent>(&*event)) {
+      HandleKeyframe(*kf);
+    } else if (auto* frame = std::get_if<FrameAnchorEvent>(&*event)) {
+      HandleFrame(*frame);
+    } else {
+      HandleDrain(std::get<DrainRequest>(*event));
+    }
+  }
+  Flush();
+  std::unique_lock lock(mutex_);
+  writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
+}
+
+Eigen::Isometry3d SlamBackend::FramePose(int64_t session_id, int64_t anchor_seq,
+                                         const Eigen::Isometry3d& T_anchor_frame) const {
+  const std::optional<int> anchor = graph_.Find(session_id, anchor_seq);
+  // Unknown anchors cannot happen for events in order; keep the relative pose as is then.
+  if (!anchor) return T_anchor_frame;
+  return graph_.node(*anchor).T_world_keyframe * T_anchor_frame;
+}
+
+void SlamBackend::HandleFrame(const FrameAnchorEvent& event) {
+  anchors_[event.session_id].push_back({event.seq, event.anchor_seq, event.T_anchor_frame});
+  if (!graph_.Find(event.session_id, event.anchor_seq)) return;
+  // A frame tracked before its session applied the latest correction was stored in the old
+  // frame: move it now.
+  const Eigen::Isometry3d T = FramePose(event.session_id, event.anchor_seq, event.T_anchor_frame);
+  if (Moved(T, event.T_world_frame))
+    pending_.pose_updates.push_back({event.session_id, event.seq, T});
+}
+
+void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
+  const Clock::time_point t0 = Clock::now();
+  const CameraCalibration* camera = nullptr;
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = sessions_.find(event.session_id);
+    if (it == sessions_.end()) return;  // never registered: nothing to anchor it to
+    camera = &it->second.camera;
+  }
+  GraphKeyframe kf;
+  kf.session_id = event.session_id;
+  kf.seq = event.seq;
+  kf.features = event.features;
+  kf.camera = camera;
+  kf.T_world_keyframe = event.T_world_keyframe;
+  std::optional<int> previous;
+  if (event.previous_seq) previous = graph_.Find(event.session_id, *event.previous_seq);
+  // Chain on the back end's estimate of the previous keyframe: keyframes made before the
+  // tracker applied a correction still land in the corrected frame.
+  if (previous)
+    kf.T_world_keyframe = graph_.node(*previous).T_world_keyframe * event.T_previous_keyframe;
+  const int index = graph_.Add(std::move(kf));
+  if (previous) {
+    GraphEdge edge;
+    edge.from = *previous;
+    edge.to = index;
+    edge.T_from_to = event.T_previous_keyframe;
+    edge.information = event.information;
+    edge.kind = PoseGraphEdgeKind::kOdometry;
+    graph_.AddEdge(edge);
+  }
+
+  std::optional<BowVector> bow;
+  if (vocabulary_) {
+    // A keyframe the vocabulary cannot describe (e.g. SIFT features) is matched locally only.
+    StatusOr<BowVector> words = vocabulary_->Transform(event.features->descriptors);
+    if (words.ok()) bow = std::move(words).value();
+  }
+  const std::optional<LoopClosureInfo> loop = CloseLoop(index, bow ? &*bow : nullptr);
+  // Add only fails for a malformed vector, which Transform never makes; such a keyframe would
+  // just not be found by place recognition.
+  if (bow && places_.Add(index, *bow).ok()) bow_[index] = std::move(*bow);
+  if (loop) OptimiseAndCorrect();
+  Flush();
+  std::lock_guard lock(mutex_);
+  ++stats_.keyframes;
+  if (loop) stats_.loops.push_back(*loop);
+  keyframe_ms_.Add(MsSince(t0));
+}
+
+std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query, const BowVector* bow) {
+  const GraphKeyframe& q = graph_.node(query);
+  // Recent keyframes of the query's own session are odometry, not loops.
+  const auto skip = [&](int i) {
+    const GraphKeyframe& k = graph_.node(i);
+    return i == query || (k.session_id == q.session_id &&
+                          q.index_in_session - k.index_in_session < options_.exclude_recent);
+  };
+  std::vector<std::pair<int, bool>> candidates;  // (node, global)
+  std::set<int> seen;
+  for (int i : graph_.Near(q.T_world_keyframe, options_.local_radius_m,
+                           options_.local_max_angle_deg * kPi / 180.0, skip)) {
+    if (static_cast<int>(candidates.size()) >= options_.max_local_candidates) break;
+    if (seen.insert(i).second) candidates.emplace_back(i, false);
+  }
+  if (bow && options_.max_global_candidates > 0) {
+    double reference = 0;  // how similar the query is to what it certainly overlaps with
+    if (q.index_in_session > 0) {
+      for (int n : graph_.SessionNeighbours(query, 1)) {
+        const auto it = bow_.find(n);
+        if (it != bow_.end())
+          reference = std::max(reference, BowVocabulary::Score(*bow, it->second));
+      }
+    }
+    const double min_score =
+        std::max(options_.min_global_score, options_.min_global_score_ratio * reference);
+    int added = 0;
+    for (const PlaceMatch& m :
+         places_.Query(*bow, options_.max_global_candidates * 4,
+                       [&](int64_t id) { return skip(static_cast<int>(id)); })) {
+      if (added >= options_.max_global_candidates || m.score < min_score) break;
+      const int i = static_cast<int>(m.entry_id);
+      if (seen.insert(i).second) {
+        candidates.emplace_back(i, true);
+        ++added;
+      }
+    }
+  }
+  for (const auto& [candidate, global] : candidates) {
+    const GraphKeyframe& c = graph_.node(candidate);
+    std::vector<const FrameFeatures*> neighbours;
+    for (int n : graph_.SessionNeighbours(candidate, options_.xi_neighbours)) {
+      if (!skip(n)) neighbours.push_back(graph_.node(n).features.get());
+    }
+    StatusOr<LoopVerification> verified =
+        VerifyLoopCandidate(*q.features, *c.features, neighbours, *q.camera, options_.verifier);
+    std::lock_guard lock(mutex_);
+    ++stats_.candidates;
+    if (!verified.ok()) continue;  // bad input (e.g. mixed descriptor types): not a loop
+    if (!verified->accepted()) {
+      if (verified->decision == LoopDecision::kXiTooHigh) {
+        ++stats_.rejected_xi;
+      } else {
+        ++stats_.rejected_geometry;
+      }
+      continue;
+    }
+    ++stats_.loops_accepted;
+    GraphEdge edge;
+    edge.from = candidate;
+    edge.to = query;
+    edge.T_from_to = verified->T_candidate_query;
+    edge.information = verified->information;
+    edge.kind = PoseGraphEdgeKind::kLoop;
+    graph_.AddEdge(edge);
+
+    LinkRecord link;
+    link.map_id = map_id_;
+    link.kind = LinkKind::kLoop;
+    link.from_session_id = c.session_id;
+    link.from_seq = c.seq;
+    link.to_session_id = q.session_id;
+    link.to_seq = q.seq;
+    link.T_from_to = edge.T_from_to;
+    link.information = edge.information;
+    pending_.links.push_back(link);
+
+    LoopClosureInfo info;
+    info.query_session_id = q.session_id;
+    info.query_seq = q.seq;
+    info.candidate_session_id = c.session_id;
+    info.candidate_seq = c.seq;
+    info.global = global;
+    info.verification = *verified;
+    return info;
+  }
+  return std::nullopt;
+}
+
+void SlamBackend::OptimiseAndCorrect() {
+  const Clock::time_point t0 = Clock::now();
+  std::vector<Eigen::Isometry3d> before(static_cast<size_t>(graph_.size()));
+  for (int i = 0; i < graph_.size(); ++i)
+    before[static_cast<size_t>(i)] = graph_.node(i).T_world_keyframe;
+  StatusOr<PoseGraphResult> result = graph_.Optimise(options_.pose_graph);
+  if (!result.ok()) return;  // the graph keeps its poses; the loop edge stays for next time
+  // Every keyframe and frame that moved is rewritten.
+  for (const auto& [session_id, anchors] : anchors_) {
+    for (const FrameAnchor& a : anchors) {
+      const std::optional<int> anchor = graph_.Find(session_id, a.anchor_seq);
+      if (!anchor) continue;
+      const Eigen::Isometry3d& T_old = before[static_cast<size_t>(*anchor)];
+      const Eigen::Isometry3d& T_new = graph_.node(*anchor).T_world_keyframe;
+      if (!Moved(T_old, T_new)) continue;
+      pending_.pose_updates.push_back({session_id, a.seq, T_new * a.T_anchor_frame});
+    }
+  }
+  std::lock_guard lock(mutex_);
+  // Each live session's tracker follows its latest keyframe.
+  for (auto& [session_id, state] : sessions_) {
+    if (!state.on_correction) continue;
+    const std::optional<int> last = graph_.LastOfSession(session_id);
+    if (!last) continue;
+    state.on_correction(graph_.node(*last).T_world_keyframe *
+                        before[static_cast<size_t>(*last)].inverse());
+  }
+  ++stats_.optimisations;
+  optimise_ms_.Add(MsSince(t0));
+}
+
+void SlamBackend::Flush() {
+  if (pending_.empty()) return;
+  {
+    std::lock_guard lock(mutex_);
+    ++pending_writes_;
+  }
+  Status submitted =
+      writer_->Submit(std::move(pending_), [this](const Status& status, const WriteResult&) {
+        std::lock_guard lock(mutex_);
+        --pending_writes_;
+        if (!status.ok() && write_error_.ok()) write_error_ = status.WithContext("slam back end");
+        writes_done_.notify_all();
+      });
+  pending_ = WriteBatch{};
+  if (!submitted.ok()) {
+    std::lock_guard lock(mutex_);
+    --pending_writes_;
+    if (write_error_.ok()) write_error_ = submitted.WithContext("slam back end");
+    writes_done_.notify_all();
+  }
+}
+
+void SlamBackend::HandleDrain(const DrainRequest& request) {
+  Flush();
+  Status status;
+  {
+    std::unique_lock lock(mutex_);
+    writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
+    status = write_error_;
+    write_error_ = OkStatus();
+  }
+  request.done->set_value(status);
+}
+
+}  // namespace semmap

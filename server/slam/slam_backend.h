@@ -1,0 +1,189 @@
+// The mapping / loop-closing back end of one map. Tracking threads hand it keyframes and frame
+// anchors through a bounded queue; its own worker thread adds keyframes to the graph, looks for
+// loop candidates (local: keyframes near the new one's pose; global: place recognition over a
+// bag of binary words), verifies them geometrically and by the neighbour ratio xi, optimises
+// the pose graph when a loop is accepted, and writes links and corrected poses through the
+// storage writer. Sessions learn about corrections through a callback and apply them on their
+// next frame, so the back end never blocks tracking on its own work.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <future>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <variant>
+#include <vector>
+
+#include "common/bounded_queue.h"
+#include "common/camera.h"
+#include "common/latency_stats.h"
+#include "common/status.h"
+#include "server/odometry/feature_extractor.h"
+#include "server/slam/bow_vocabulary.h"
+#include "server/slam/keyframe_graph.h"
+#include "server/slam/loop_verifier.h"
+#include "server/slam/place_database.h"
+#include "server/slam/pose_graph.h"
+#include "storage/storage_writer.h"
+
+namespace semmap {
+
+struct SlamBackendOptions {
+  LoopVerifierOptions verifier;
+  PoseGraphOptions pose_graph;
+  size_t queue_capacity = 512;  // events (keyframes and frame anchors) waiting for the worker
+  // Keyframes this close in a session's order are its odometry neighbours, never loop
+  // candidates (they are matched by tracking already).
+  int exclude_recent = 8;
+  // Local candidates: keyframes within this distance and viewing-angle difference.
+  double local_radius_m = 0.6;
+  double local_max_angle_deg = 40;
+  int max_local_candidates = 2;
+  // Global candidates: best place-recognition scores, kept when at least min_score and at
+  // least min_score_ratio times the score of the query against its previous keyframe.
+  int max_global_candidates = 3;
+  double min_global_score = 0.02;
+  double min_global_score_ratio = 0.6;
+  int xi_neighbours = 2;  // the candidate's session neighbours (each side) for N_n
+
+  Status Validate() const;
+};
+
+// A new keyframe from a session's tracker. Poses are in the tracker's frame at the time; the
+// back end re-anchors them on its own estimate of the previous keyframe.
+struct KeyframeEvent {
+  int64_t session_id = 0;
+  int64_t seq = 0;
+  Eigen::Isometry3d T_world_keyframe = Eigen::Isometry3d::Identity();
+  std::shared_ptr<const FrameFeatures> features;
+  // The odometry measurement from the session's previous keyframe (absent for its first).
+  std::optional<int64_t> previous_seq;
+  Eigen::Isometry3d T_previous_keyframe = Eigen::Isometry3d::Identity();
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
+};
+
+// Every frame's pose relative to the keyframe it was tracked from, so stored poses follow that
+// keyframe when the graph moves it. `T_world_frame` is what the session stored.
+struct FrameAnchorEvent {
+  int64_t session_id = 0;
+  int64_t seq = 0;
+  int64_t anchor_seq = 0;
+  Eigen::Isometry3d T_anchor_frame = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_world_frame = Eigen::Isometry3d::Identity();
+};
+
+struct LoopClosureInfo {
+  int64_t query_session_id = 0, query_seq = 0;
+  int64_t candidate_session_id = 0, candidate_seq = 0;
+  bool global = false;  // found by place recognition (else by pose proximity)
+  LoopVerification verification;
+};
+
+struct SlamBackendStats {
+  uint64_t keyframes = 0;
+  uint64_t candidates = 0;
+  uint64_t loops_accepted = 0;
+  uint64_t rejected_geometry = 0;
+  uint64_t rejected_xi = 0;
+  uint64_t optimisations = 0;
+  size_t queue_high_water = 0;
+  LatencySummary keyframe_ms;  // worker time per keyframe (candidates, verification)
+  LatencySummary optimise_ms;
+  std::vector<LoopClosureInfo> loops;
+};
+
+class SlamBackend {
+ public:
+  // The session's tracker moves to the corrected frame: T_corrected_world * T_world_x.
+  using CorrectionCallback = std::function<void(const Eigen::Isometry3d& T_corrected_world)>;
+
+  // `vocabulary` may be null: then only local (pose-proximity) candidates are searched.
+  // `writer` must outlive the back end.
+  static StatusOr<std::unique_ptr<SlamBackend>> Start(
+      int64_t map_id, SlamBackendOptions options, std::shared_ptr<const BowVocabulary> vocabulary,
+      StorageWriter* writer);
+  ~SlamBackend();  // drains queued events, then joins the worker
+  SlamBackend(const SlamBackend&) = delete;
+  SlamBackend& operator=(const SlamBackend&) = delete;
+
+  // Call before the session's first event. The callback runs on the back end's thread and
+  // must not block.
+  void RegisterSession(int64_t session_id, const CameraCalibration& camera,
+                       CorrectionCallback on_correction);
+  // No more corrections reach the session (its keyframes stay in the graph).
+  void UnregisterSession(int64_t session_id);
+
+  // Block only while the queue is full; UNAVAILABLE after Stop().
+  Status AddKeyframe(KeyframeEvent event);
+  Status AddFrame(FrameAnchorEvent event);
+  // Waits until every event added so far is processed and its writes are committed; returns
+  // the first storage error since the last Drain.
+  Status Drain();
+  void Stop();
+
+  SlamBackendStats stats() const;
+  int64_t map_id() const { return map_id_; }
+
+ private:
+  struct DrainRequest {
+    std::shared_ptr<std::promise<Status>> done;
+  };
+  using Event = std::variant<KeyframeEvent, FrameAnchorEvent, DrainRequest>;
+  struct SessionState {
+    CameraCalibration camera;
+    CorrectionCallback on_correction;  // empty once unregistered
+  };
+  struct FrameAnchor {
+    int64_t seq = 0;
+    int64_t anchor_seq = 0;
+    Eigen::Isometry3d T_anchor_frame = Eigen::Isometry3d::Identity();
+  };
+
+  SlamBackend(int64_t map_id, SlamBackendOptions options,
+              std::shared_ptr<const BowVocabulary> vocabulary, StorageWriter* writer);
+  void Run();
+  void HandleKeyframe(KeyframeEvent& event);
+  void HandleFrame(const FrameAnchorEvent& event);
+  void HandleDrain(const DrainRequest& request);
+  // Loop candidates for node `query`, verified; the first accepted one becomes a loop edge.
+  std::optional<LoopClosureInfo> CloseLoop(int query, const BowVector* bow);
+  void OptimiseAndCorrect();
+  void Flush();  // submits the pending batch
+  Eigen::Isometry3d FramePose(int64_t session_id, int64_t anchor_seq,
+                              const Eigen::Isometry3d& T_anchor_frame) const;
+
+  const int64_t map_id_;
+  const SlamBackendOptions options_;
+  const std::shared_ptr<const BowVocabulary> vocabulary_;
+  StorageWriter* const writer_;
+  BoundedQueue<Event> queue_;
+
+  // Worker-thread state.
+  KeyframeGraph graph_;
+  PlaceDatabase places_;
+  std::map<int, BowVector> bow_;  // by node index (for the score against the previous one)
+  WriteBatch pending_;
+  std::map<int64_t, std::vector<FrameAnchor>> anchors_;  // by session, in seq order
+
+  mutable std::mutex mutex_;  // sessions_, stats_, write bookkeeping
+  // Entries are never erased: graph keyframes point at their session's camera.
+  std::map<int64_t, SessionState> sessions_;
+  SlamBackendStats stats_;
+  LatencyStats keyframe_ms_{"backend_keyframe"};
+  LatencyStats optimise_ms_{"optimise"};
+  std::condition_variable writes_done_;
+  size_t pending_writes_ = 0;
+  Status write_error_;
+
+  std::atomic<bool> stopped_{false};
+  std::thread worker_;
+};
+
+}  // namespace semmap

@@ -1,0 +1,139 @@
+#include "server/odometry/rgbd_refiner.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "server/odometry/local_map.h"
+#include "tests/unit/odometry/odometry_test_util.h"
+
+namespace semmap {
+namespace {
+
+CameraCalibration Camera() {
+  CameraCalibration c;
+  c.width = 640;
+  c.height = 480;
+  c.fx = c.fy = 525;
+  c.cx = 319.5;
+  c.cy = 239.5;
+  return c;
+}
+
+Eigen::Isometry3d TruePose() {  // T_current_reference
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(0.1, Eigen::Vector3d(0.3, 1, 0.2).normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(0.05, -0.02, 0.1);
+  return T;
+}
+
+// Points 1-4 m in front, observed with pixel noise and depth noise sigma_z = 1.5e-3 z^2;
+// every fifth observation is an outlier (pixel moved by 30 px or depth by 30%).
+std::vector<RgbdObservation> Observations(const CameraCalibration& c, int n) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> xy(-1.0, 1.0), depth(1.0, 4.0);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  const Eigen::Isometry3d T = TruePose();
+  std::vector<RgbdObservation> obs;
+  while (static_cast<int>(obs.size()) < n) {
+    const double z = depth(rng);
+    const Eigen::Vector3d p(xy(rng) * 0.5 * z, xy(rng) * 0.4 * z, z);  // current camera frame
+    RgbdObservation o;
+    o.point = T.inverse() * p;
+    o.pixel = odometry_test::Project(c, p) + 0.7 * Eigen::Vector2d(unit(rng), unit(rng));
+    o.inverse_depth = 1.0 / (z + 1.5e-3 * z * z * unit(rng));
+    if (obs.size() % 5 == 4) {
+      if (obs.size() % 10 == 4) {
+        o.pixel.x() += 30;
+      } else {
+        o.inverse_depth *= 1.3;
+      }
+    }
+    obs.push_back(o);
+  }
+  return obs;
+}
+
+TEST(RgbdRefinerTest, RecoversThePoseAndRejectsPixelAndDepthOutliers) {
+  const CameraCalibration c = Camera();
+  const std::vector<RgbdObservation> obs = Observations(c, 300);
+  Eigen::Isometry3d start = TruePose();
+  start.translation() += Eigen::Vector3d(0.02, 0.01, -0.03);
+  const RgbdRefinement r = RefinePoseRgbd(obs, c, RgbdRefinerOptions{}, start);
+  const Eigen::Isometry3d error = TruePose().inverse() * r.T_current_reference;
+  EXPECT_LT(error.translation().norm(), 2e-3);
+  EXPECT_LT(odometry_test::AngleDeg(error), 0.1);
+  int outliers_kept = 0, inliers_dropped = 0;
+  for (size_t i = 0; i < obs.size(); ++i) {
+    if (i % 5 == 4) {
+      outliers_kept += r.inlier[i] ? 1 : 0;
+    } else {
+      inliers_dropped += r.inlier[i] ? 0 : 1;
+    }
+  }
+  EXPECT_EQ(outliers_kept, 0);
+  EXPECT_LT(inliers_dropped, 24);  // about 5% of 240 fail a 95% gate
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(r.information);
+  EXPECT_GT(eigen.eigenvalues().minCoeff(), 0);
+}
+
+TEST(RgbdRefinerTest, DepthTermAddsInformationOnTheOpticalAxis) {
+  const CameraCalibration c = Camera();
+  std::vector<RgbdObservation> clean;
+  const std::vector<RgbdObservation> obs = Observations(c, 300);
+  for (size_t i = 0; i < obs.size(); ++i) {
+    if (i % 5 != 4) clean.push_back(obs[i]);
+  }
+  RgbdRefinerOptions with_depth, without_depth;
+  without_depth.use_depth = false;
+  const RgbdRefinement a = RefinePoseRgbd(clean, c, with_depth, TruePose());
+  const RgbdRefinement b = RefinePoseRgbd(clean, c, without_depth, TruePose());
+  EXPECT_GT(a.information(2, 2), 1.5 * b.information(2, 2));
+}
+
+TEST(LocalMapTest, FusesDepthObservationsAndFollowsACorrection) {
+  const CameraCalibration c = Camera();
+  LocalMap map(LocalMapOptions{}, c);
+  // One point seen by two keyframes from different sides with depth errors of 2 cm.
+  const Eigen::Vector3d X(0.1, 0.0, 2.0);
+  Eigen::Isometry3d T_w_a = Eigen::Isometry3d::Identity(), T_w_b = Eigen::Isometry3d::Identity();
+  T_w_a.translation() = Eigen::Vector3d(-0.5, 0, 0);
+  T_w_b.translation() = Eigen::Vector3d(2.1, 0, 2.0);  // 2 m to the side, looking along -x
+  T_w_b.linear() = Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const auto Frame = [&](const Eigen::Isometry3d& T_w_c, double depth_error) {
+    FrameFeatures f;
+    Eigen::Vector3d p = T_w_c.inverse() * X;
+    p *= (p.z() + depth_error) / p.z();  // along the ray
+    const Eigen::Vector2d u = odometry_test::Project(c, p);
+    f.keypoints.emplace_back(static_cast<float>(u.x()), static_cast<float>(u.y()), 31.f);
+    f.descriptors = cv::Mat(1, 32, CV_8U, cv::Scalar(7));
+    f.points_camera.push_back(p);
+    f.has_depth.push_back(true);
+    return f;
+  };
+  map.AddKeyframe(0, Frame(T_w_a, 0.02), T_w_a, {});
+  ASSERT_EQ(map.size(), 1u);
+  const double first_error = (map.point(0).position_world - X).norm();
+  map.AddKeyframe(1, Frame(T_w_b, 0.02), T_w_b, {0});
+  ASSERT_EQ(map.size(), 1u);
+  EXPECT_EQ(map.point(0).num_depth_observations, 2);
+  // The rays cross at ~70 degrees: each view's precise bearing fixes the other's depth.
+  EXPECT_LT((map.point(0).position_world - X).norm(), 0.5 * first_error);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(1, 2, 3);
+  const Eigen::Vector3d before = map.point(0).position_world;
+  map.Transform(T);
+  EXPECT_LT((map.point(0).position_world - T * before).norm(), 1e-9);
+  // Outside the keyframe window the point is dropped.
+  FrameFeatures empty;
+  empty.descriptors = cv::Mat(0, 32, CV_8U);
+  map.AddKeyframe(1 + LocalMapOptions{}.window_keyframes, empty, T_w_a, {});
+  EXPECT_EQ(map.size(), 0u);
+}
+
+}  // namespace
+}  // namespace semmap
