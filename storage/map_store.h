@@ -60,6 +60,9 @@ class MapStore {
   // Keyframes of a session in seq order, without image and feature bytes unless with_images.
   virtual StatusOr<std::vector<KeyframeRecord>> ListKeyframes(int64_t session_id,
                                                               bool with_images) = 0;
+  // Keyframes of a session in seq order with their features but no images (what the SLAM back
+  // end reloads); DATA_LOSS when stored features fail their checksum.
+  virtual StatusOr<std::vector<KeyframeRecord>> ListKeyframeFeatures(int64_t session_id) = 0;
   virtual StatusOr<std::vector<LinkRecord>> ListLinks(int64_t map_id) = 0;
   // Replaces keyframe poses after an optimisation (ids must exist).
   virtual Status UpdateKeyframePoses(

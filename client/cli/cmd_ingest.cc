@@ -211,6 +211,7 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
                           {"keyframes", summary->keyframes()},
                           {"lost_frames", summary->lost_frames()},
                           {"loop_closures", summary->loop_closures()},
+                          {"new_segments", summary->new_segments()},
                           {"skipped_no_pose", skipped_no_pose},
                           {"seconds", seconds},
                           {"frames_per_second", fps}};
@@ -231,7 +232,8 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
               << " keyframes) in map '" << summary->map() << "' session '" << summary->session()
               << "' at " << std::fixed << std::setprecision(1) << fps << " frames/s\n";
     if (start.mode() == v1::SESSION_MODE_RGBD) {
-      std::cout << "tracking lost on " << summary->lost_frames() << " frames; "
+      std::cout << "tracking lost on " << summary->lost_frames() << " frames ("
+                << summary->new_segments() << " restarts after a loss); "
                 << summary->loop_closures() << " loop closures\n";
     }
     if (skipped_no_pose > 0) {

@@ -27,6 +27,9 @@ struct FrameEstimate {
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
   bool is_keyframe = false;
   bool lost = false;  // visual tracking failed: the pose is the last good one
+  // Tracking restarted after a sustained loss: this keyframe has no odometry to the previous
+  // ones (a new graph component until place recognition reconnects it).
+  bool new_segment = false;
   // Visual modes: information of the pose w.r.t. the keyframe it was tracked from, and the
   // new keyframe's features (for loop closure and storage) when is_keyframe.
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();

@@ -49,8 +49,16 @@ StatusOr<std::shared_ptr<SlamBackend>> IngestManager::BackendFor(int64_t map_id)
   std::lock_guard lock(backends_mutex_);
   auto it = backends_.find(map_id);
   if (it != backends_.end()) return it->second;
-  SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SlamBackend> backend,
-                          SlamBackend::Start(map_id, options_.slam, vocabulary_, writer_));
+  // What the map already holds (earlier sessions, before a restart) joins the new graph, so new
+  // sessions close loops with it. Read on the writer's thread: consistent with queued writes.
+  MapSnapshot snapshot;
+  SEMMAP_RETURN_IF_ERROR(writer_->RunSync([&](MapStore& store) -> Status {
+    SEMMAP_ASSIGN_OR_RETURN(snapshot, ReadMapSnapshot(store, map_id));
+    return OkStatus();
+  }));
+  SEMMAP_ASSIGN_OR_RETURN(
+      std::unique_ptr<SlamBackend> backend,
+      SlamBackend::Start(map_id, options_.slam, vocabulary_, writer_, &snapshot));
   std::shared_ptr<SlamBackend> shared = std::move(backend);
   backends_.emplace(map_id, shared);
   return shared;

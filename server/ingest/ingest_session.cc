@@ -51,18 +51,22 @@ IngestSession::IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* wr
       queue_(options_.queue_capacity),
       backends_(std::move(backends)),
       started_at_(std::chrono::steady_clock::now()) {
+  decoder_ = std::thread([this] { RunDecoder(); });
   worker_ = std::thread([this] { Run(); });
 }
 
 IngestSession::~IngestSession() {
   Stop();
-  if (!worker_.joinable()) return;
-  // The last reference can be dropped by a callback running on the worker itself (through
-  // the sink); the worker touches no member after OnFinished, so letting it exit is safe.
-  if (worker_.get_id() == std::this_thread::get_id()) {
-    worker_.detach();
-  } else {
-    worker_.join();
+  staged_.Shutdown();
+  // The last reference can be dropped by a callback running on one of the session's own
+  // threads (through the sink); they touch no member after that, so letting it exit is safe.
+  for (std::thread* thread : {&decoder_, &worker_}) {
+    if (!thread->joinable()) continue;
+    if (thread->get_id() == std::this_thread::get_id()) {
+      thread->detach();
+    } else {
+      thread->join();
+    }
   }
 }
 
@@ -84,10 +88,30 @@ void IngestSession::Stop() {
   queue_.Shutdown();
 }
 
-void IngestSession::Run() {
+void IngestSession::RunDecoder() {
+  std::optional<std::pair<int, int>> size;  // of the start message's camera
   while (std::optional<IngestMessage> message = queue_.Pop()) {
     sink_->OnQueueRoom();
-    Status status = Handle(*message);
+    StagedMessage staged;
+    if (const auto* start = std::get_if<IngestStartRequest>(&*message)) {
+      if (!size) size = std::make_pair(start->camera.width, start->camera.height);
+    } else if (const auto* frame = std::get_if<IngestFrame>(&*message)) {
+      // Frames the worker will refuse anyway (no start, too large, no colour) are not decoded.
+      if (size && frame->colour && frame->payload_bytes <= options_.max_frame_bytes) {
+        const Clock::time_point t0 = Clock::now();
+        staged.images = DecodeImages(*frame, size->first, size->second);
+        staged.decode_ms = MsSince(t0);
+      }
+    }
+    staged.message = std::move(*message);
+    if (!staged_.Push(std::move(staged))) return;  // the worker finished early
+  }
+  staged_.Shutdown();  // the worker drains what is staged, then sees the end
+}
+
+void IngestSession::Run() {
+  while (std::optional<StagedMessage> staged = staged_.Pop()) {
+    Status status = Handle(*staged);
     if (!status.ok()) {
       Finish(std::move(status));
       return;
@@ -102,7 +126,8 @@ void IngestSession::Run() {
                                                : UnavailableError("the server is shutting down"));
 }
 
-Status IngestSession::Handle(IngestMessage& message) {
+Status IngestSession::Handle(StagedMessage& staged) {
+  IngestMessage& message = staged.message;
   {
     std::lock_guard lock(commit_mutex_);
     if (!write_error_.ok()) return write_error_;
@@ -113,7 +138,10 @@ Status IngestSession::Handle(IngestMessage& message) {
     return HandleStart(*start);
   }
   if (!session_) return InvalidArgumentError("the first message of an ingest stream must be start");
-  if (auto* frame = std::get_if<IngestFrame>(&message)) return HandleFrame(*frame);
+  if (auto* frame = std::get_if<IngestFrame>(&message)) {
+    if (staged.images) decode_ms_.Add(staged.decode_ms);
+    return HandleFrame(*frame, staged.images);
+  }
   ended_ = true;  // IngestEnd
   return OkStatus();
 }
@@ -168,7 +196,23 @@ Status IngestSession::HandleStart(const IngestStartRequest& start) {
   return OkStatus();
 }
 
-StatusOr<DecodedFrame> IngestSession::Decode(IngestFrame& frame) const {
+StatusOr<IngestSession::DecodedImages> IngestSession::DecodeImages(const IngestFrame& frame,
+                                                                   int width, int height) {
+  const std::string where = "frame seq " + std::to_string(frame.seq);
+  DecodedImages images;
+  StatusOr<cv::Mat> colour = DecodeColour(*frame.colour, width, height);
+  if (!colour.ok()) return colour.status().WithContext(where);
+  images.colour = std::move(colour).value();
+  if (frame.depth) {
+    StatusOr<DecodedDepth> depth = DecodeDepth(*frame.depth, width, height);
+    if (!depth.ok()) return depth.status().WithContext(where);
+    images.depth = std::move(depth).value();
+  }
+  return images;
+}
+
+StatusOr<DecodedFrame> IngestSession::Validate(
+    const IngestFrame& frame, std::optional<StatusOr<DecodedImages>>& images) const {
   if (last_seq_ && frame.seq <= *last_seq_) {
     return InvalidArgumentError("frame seq " + std::to_string(frame.seq) +
                                 " is not greater than the previous seq " +
@@ -186,19 +230,16 @@ StatusOr<DecodedFrame> IngestSession::Decode(IngestFrame& frame) const {
   if (!frame.colour) {
     return InvalidArgumentError("frame seq " + std::to_string(frame.seq) + " has no colour image");
   }
-  const CameraCalibration& cam = session_->camera;
   DecodedFrame decoded;
   decoded.seq = frame.seq;
   decoded.stamp_ns = *frame.stamp_ns;
   const std::string where = "frame seq " + std::to_string(frame.seq);
-  StatusOr<cv::Mat> colour = DecodeColour(*frame.colour, cam.width, cam.height);
-  if (!colour.ok()) return colour.status().WithContext(where);
-  decoded.colour = std::move(colour).value();
-  if (frame.depth) {
-    StatusOr<DecodedDepth> depth = DecodeDepth(*frame.depth, cam.width, cam.height);
-    if (!depth.ok()) return depth.status().WithContext(where);
-    decoded.depth = std::move(depth).value();
-  }
+  // The decoder saw the same start (it is the first message), so every frame that got here
+  // was decoded.
+  if (!images) return InternalError(where + " was not decoded");
+  if (!images->ok()) return images->status();
+  decoded.colour = std::move(images->value().colour);
+  decoded.depth = std::move(images->value().depth);
   if (frame.pose_prior) {
     Status pose_ok = ValidatePoseTq(*frame.pose_prior);
     if (!pose_ok.ok()) return pose_ok.WithContext(where + " pose_prior");
@@ -207,15 +248,19 @@ StatusOr<DecodedFrame> IngestSession::Decode(IngestFrame& frame) const {
   return decoded;
 }
 
-Status IngestSession::HandleFrame(IngestFrame& frame) {
+Status IngestSession::HandleFrame(IngestFrame& frame,
+                                  std::optional<StatusOr<DecodedImages>>& images) {
   const Clock::time_point t0 = Clock::now();
-  SEMMAP_ASSIGN_OR_RETURN(DecodedFrame decoded, Decode(frame));
-  decode_ms_.Add(MsSince(t0));
+  SEMMAP_ASSIGN_OR_RETURN(DecodedFrame decoded, Validate(frame, images));
   ApplyPendingCorrection();
   const Clock::time_point t1 = Clock::now();
   SEMMAP_ASSIGN_OR_RETURN(FrameEstimate estimate, processor_->Process(decoded));
   tracking_ms_.Add(MsSince(t1));
   last_seq_ = frame.seq;
+  if (estimate.new_segment) {
+    last_keyframe_seq_.reset();  // no odometry link across the break
+    ++segments_;
+  }
   const std::optional<uint64_t> previous_keyframe_seq = last_keyframe_seq_;
   const Eigen::Isometry3d T_world_previous_keyframe = last_keyframe_pose_;
   SEMMAP_RETURN_IF_ERROR(SubmitFrame(decoded, frame, estimate));
@@ -399,6 +444,7 @@ void IngestSession::Finish(Status status) {
   }
   summary.frames = frames_.load();
   summary.lost_frames = lost_frames_;
+  summary.new_segments = segments_;
   summary.loop_closures = loop_closures;
   summary.keyframes = keyframes_.load();
   summary.durable_seq = durable_seq();
@@ -416,6 +462,7 @@ void IngestSession::Finish(Status status) {
                                        std::to_string(*summary.durable_seq) + " are stored)");
   }
   queue_.Shutdown();
+  staged_.Shutdown();
   finished_.store(true);
   sink_->OnFinished(status, summary);
 }

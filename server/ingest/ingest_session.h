@@ -1,5 +1,7 @@
-// One ingest stream's pipeline: a bounded input queue drained by a worker thread that validates,
-// decodes, estimates the pose, decides keyframes and hands batches to the storage writer.
+// One ingest stream's pipeline, two stages joined by bounded queues: a decoder thread drains
+// the input queue and decodes images (PNG/JPEG decoding costs about as much as tracking, so it
+// overlaps with the previous frame's tracking); the worker thread validates, estimates the pose,
+// decides keyframes and hands batches to the storage writer and the SLAM back end.
 #pragma once
 
 #include <atomic>
@@ -8,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <opencv2/core/mat.hpp>
 #include <optional>
 #include <thread>
 
@@ -33,6 +36,10 @@ class IngestSession {
   IngestSession(const IngestSession&) = delete;
   IngestSession& operator=(const IngestSession&) = delete;
 
+  // Decoded frames waiting for the worker: small, the input queue is the buffer. A session holds
+  // at most queue_capacity + kStagedCapacity + 1 (being decoded) frames.
+  static constexpr size_t kStagedCapacity = 2;
+
   // Never blocks. False when the queue is full: pause reading until IngestSink::OnQueueRoom.
   bool TryEnqueue(IngestMessage& message);
   bool HasRoom() const { return queue_.size() < queue_.capacity(); }
@@ -44,11 +51,27 @@ class IngestSession {
   bool finished() const { return finished_.load(); }
 
  private:
+  // A message on its way from the decoder to the worker: frames carry their decoded images
+  // (or the decoding error) next to the wire message, which keyframes store as received.
+  struct DecodedImages {
+    cv::Mat colour;
+    std::optional<DecodedDepth> depth;
+  };
+  struct StagedMessage {
+    IngestMessage message;
+    std::optional<StatusOr<DecodedImages>> images;  // frames that were worth decoding
+    double decode_ms = 0;
+  };
+
+  void RunDecoder();
   void Run();
-  Status Handle(IngestMessage& message);
+  static StatusOr<DecodedImages> DecodeImages(const IngestFrame& frame, int width, int height);
+  Status Handle(StagedMessage& staged);
   Status HandleStart(const IngestStartRequest& start);
-  Status HandleFrame(IngestFrame& frame);
-  StatusOr<DecodedFrame> Decode(IngestFrame& frame) const;
+  Status HandleFrame(IngestFrame& frame, std::optional<StatusOr<DecodedImages>>& images);
+  // Order, size and presence checks first (their errors win), then the decoded images.
+  StatusOr<DecodedFrame> Validate(const IngestFrame& frame,
+                                  std::optional<StatusOr<DecodedImages>>& images) const;
   Status SubmitFrame(const DecodedFrame& frame, const IngestFrame& wire,
                      const FrameEstimate& estimate);
   void OnCommitted(const Status& status, uint64_t seq,
@@ -65,6 +88,7 @@ class IngestSession {
   StorageWriter* writer_;
   const IngestOptions options_;
   BoundedQueue<IngestMessage> queue_;
+  BoundedQueue<StagedMessage> staged_{kStagedCapacity};
 
   // Worker-thread state.
   std::optional<SessionInfo> session_;
@@ -97,8 +121,10 @@ class IngestSession {
   std::atomic<uint64_t> frames_{0};  // read by commit callbacks for progress
   std::atomic<uint64_t> keyframes_{0};
   uint64_t lost_frames_ = 0;
+  uint64_t segments_ = 0;            // restarts after a sustained tracking loss
   std::atomic<int> stop_reason_{0};  // 0 none, 1 cancelled, 2 server stop
   std::atomic<bool> finished_{false};
+  std::thread decoder_;
   std::thread worker_;
 };
 

@@ -69,6 +69,7 @@ struct IngestSummaryInfo {
   uint64_t keyframes = 0;
   uint64_t lost_frames = 0;    // visual tracking failed (pose held at the last good one)
   uint64_t loop_closures = 0;  // loops the back end accepted with this session's keyframes
+  uint64_t new_segments = 0;   // tracking restarted after a sustained loss
   std::optional<uint64_t> durable_seq;
   double duration_s = 0;
   // Per-stage latency inside the server: decode, tracking, keyframe, storage_commit, frame.

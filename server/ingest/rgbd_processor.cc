@@ -23,6 +23,7 @@ StatusOr<FrameEstimate> RgbdProcessor::Process(const DecodedFrame& frame) {
   estimate.T_world_camera = tracked->T_world_camera;
   estimate.is_keyframe = tracked->is_keyframe;
   estimate.lost = tracked->state == TrackingState::kLost;
+  estimate.new_segment = tracked->new_segment;
   estimate.information = tracked->information;
   estimate.keyframe_features = std::move(tracked->keyframe_features);
   return estimate;

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -24,6 +25,8 @@ std::string_view TrackingStateName(TrackingState state) {
       return "relocalised";
     case TrackingState::kLost:
       return "lost";
+    case TrackingState::kReinitialised:
+      return "reinitialised";
   }
   return "unknown";
 }
@@ -48,6 +51,9 @@ Status RgbdTrackerOptions::Validate() const {
   if (relocalisation_keyframes < 1 || relocalisation_keyframes > 100) {
     return InvalidArgumentError("tracker relocalisation_keyframes must be in [1, 100]");
   }
+  if (reinitialise_after_lost < 0) {
+    return InvalidArgumentError("tracker reinitialise_after_lost must be >= 0 (0 disables it)");
+  }
   if (!T_world_first.matrix().allFinite()) {
     return InvalidArgumentError("tracker T_world_first must be finite");
   }
@@ -59,6 +65,18 @@ StatusOr<RgbdTracker> RgbdTracker::Create(const RgbdTrackerOptions& options) {
   SEMMAP_ASSIGN_OR_RETURN(FeatureExtractor extractor,
                           FeatureExtractor::Create(options.features, options.camera));
   return RgbdTracker(options, std::move(extractor));
+}
+
+std::shared_ptr<const FrameFeatures> RgbdTracker::StartSegment(
+    FrameFeatures features, const Eigen::Isometry3d& T_world_camera) {
+  keyframes_.clear();
+  map_.Clear();
+  selector_ = KeyframeSelector(options_.keyframes);
+  selector_.Decide(T_world_camera);
+  T_world_last_ = T_world_camera;
+  T_last_velocity_.setIdentity();
+  lost_with_depth_ = 0;
+  return MakeKeyframe(std::move(features), T_world_camera, {});
 }
 
 std::shared_ptr<const FrameFeatures> RgbdTracker::MakeKeyframe(
@@ -291,12 +309,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
     return result;
   }
   if (keyframes_.empty()) {
-    selector_ = KeyframeSelector(options_.keyframes);
-    selector_.Decide(options_.T_world_first);
-    map_.Clear();
-    result.keyframe_features = MakeKeyframe(std::move(current), options_.T_world_first, {});
-    T_world_last_ = options_.T_world_first;
-    T_last_velocity_.setIdentity();
+    result.keyframe_features = StartSegment(std::move(current), options_.T_world_first);
     result.T_world_camera = options_.T_world_first;
     result.is_keyframe = true;
     result.timings.total_ms = MsSince(start);
@@ -377,12 +390,27 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
     result.state = TrackingState::kLost;
     result.T_world_camera = *T_world_last_;
     T_last_velocity_.setIdentity();
+    if (has_depth) {
+      // Lost for long enough: the kept keyframes are out of reach. A frame good enough to
+      // track from starts a new segment at the last known pose; a poor one stays lost.
+      const int n = options_.reinitialise_after_lost;
+      const size_t min_depth_keypoints = 2 * static_cast<size_t>(options_.motion.min_inliers);
+      if (n > 0 && lost_with_depth_ >= n && current.NumWithDepth() >= min_depth_keypoints) {
+        result.keyframe_features = StartSegment(std::move(current), *T_world_last_);
+        result.state = TrackingState::kReinitialised;
+        result.new_segment = true;
+        result.is_keyframe = true;
+      } else if (lost_with_depth_ < std::numeric_limits<int>::max()) {
+        ++lost_with_depth_;
+      }
+    }
     result.timings.match_ms = match_ms;
     result.timings.pose_ms = pose_ms;
     result.timings.total_ms = MsSince(start);
     return result;
   }
   const Eigen::Isometry3d T_world_current = best->T_world_current;
+  lost_with_depth_ = 0;
   result.num_inliers = best->num_inliers;
   result.state = state;
   result.T_world_camera = T_world_current;

@@ -6,7 +6,9 @@
 // becomes a keyframe (and adds its points to the map) when it moved far enough
 // (KeyframeSelector) or when the tracked inliers fall below a fraction of what the first frame
 // after the last keyframe had. When tracking fails, the last few keyframes are tried
-// (relocalisation) before the frame is reported lost.
+// (relocalisation) before the frame is reported lost. After a sustained loss (the camera never
+// comes back to those keyframes) the tracker re-initialises: a frame that still cannot be placed
+// starts a new map segment at the last known pose (TrackingResult::new_segment).
 #pragma once
 
 #include <Eigen/Geometry>
@@ -47,13 +49,20 @@ struct RgbdTrackerOptions {
   int min_guided_inliers = 80;
   // Keyframes kept (features and poses) for relocalisation, the reference included.
   int relocalisation_keyframes = 5;
+  // After this many consecutive lost frames with depth (frames without depth neither count nor
+  // break the run), the next frame with depth that can still not be tracked or relocalised
+  // starts a new map segment (TrackingState::kReinitialised) if it has at least
+  // 2 * motion.min_inliers keypoints with depth; else it stays lost and the next one is tried.
+  // 0 disables it (lost until the camera sees the kept keyframes again).
+  int reinitialise_after_lost = 5;
   // Pose of the first frame.
   Eigen::Isometry3d T_world_first = Eigen::Isometry3d::Identity();
 
   Status Validate() const;
 };
 
-enum class TrackingState { kTracking, kRelocalised, kLost };
+// kReinitialised: lost for too long, this frame started a new map segment (new_segment).
+enum class TrackingState { kTracking, kRelocalised, kLost, kReinitialised };
 std::string_view TrackingStateName(TrackingState state);
 
 struct TrackingTimings {
@@ -71,6 +80,11 @@ struct TrackingResult {
   int num_inliers = 0;
   TrackingState state = TrackingState::kTracking;
   bool used_guided_matching = false;  // the pose came from the local map or guided matching
+  // State kReinitialised: this frame is the first keyframe of a new map segment (is_keyframe,
+  // keyframe_features set, information zero), placed at the last known pose. It has no
+  // odometry to the previous keyframes: the tracker forgot them (local map and relocalisation
+  // keyframes start afresh from this frame); only place recognition can reconnect the segments.
+  bool new_segment = false;
   TrackingTimings timings;
   // When is_keyframe: the new keyframe's features (3D points in its own camera frame), shared
   // with the back end (loop closure, place recognition), never modified after publication.
@@ -150,6 +164,10 @@ class RgbdTracker {
   StatusOr<Attempt> Estimate(const Keyframe& keyframe, const FrameFeatures& current,
                              const std::vector<cv::DMatch>& matches,
                              const std::optional<Eigen::Isometry3d>& guess) const;
+  // Forgets the keyframes, the local map and the motion, and starts afresh from `features` as
+  // the first keyframe at T_world_camera.
+  std::shared_ptr<const FrameFeatures> StartSegment(FrameFeatures features,
+                                                    const Eigen::Isometry3d& T_world_camera);
   std::shared_ptr<const FrameFeatures> MakeKeyframe(FrameFeatures features,
                                                     const Eigen::Isometry3d& T_world_camera,
                                                     const std::vector<int>& point_of_keypoint);
@@ -163,6 +181,7 @@ class RgbdTracker {
   std::optional<Eigen::Isometry3d> T_world_last_;
   Eigen::Isometry3d T_last_velocity_ = Eigen::Isometry3d::Identity();  // T_prev_last
   std::optional<int64_t> last_stamp_ns_;
+  int lost_with_depth_ = 0;  // consecutive lost frames with depth
 };
 
 }  // namespace semmap

@@ -110,6 +110,7 @@ void ToProto(const IngestSummaryInfo& s, v1::IngestSummary* out) {
   out->set_duration_s(s.duration_s);
   out->set_lost_frames(s.lost_frames);
   out->set_loop_closures(s.loop_closures);
+  out->set_new_segments(s.new_segments);
   for (const LatencySummary& stage : s.stages) {
     v1::StageLatency* wire = out->add_stages();
     wire->set_name(stage.name);

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 
 namespace semmap {
 
@@ -13,7 +12,23 @@ int KeyframeGraph::Add(GraphKeyframe keyframe) {
   order.push_back(index);
   by_session_seq_[{keyframe.session_id, keyframe.seq}] = index;
   nodes_.push_back(std::move(keyframe));
+  parent_.push_back(index);
   return index;
+}
+
+int KeyframeGraph::Root(int index) const {
+  size_t i = static_cast<size_t>(index);
+  while (parent_[i] != static_cast<int>(i)) {
+    parent_[i] = parent_[static_cast<size_t>(parent_[i])];
+    i = static_cast<size_t>(parent_[i]);
+  }
+  return static_cast<int>(i);
+}
+
+void KeyframeGraph::AddEdge(const GraphEdge& edge) {
+  edges_.push_back(edge);
+  const int a = Root(edge.from), b = Root(edge.to);
+  if (a != b) parent_[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
 }
 
 std::optional<int> KeyframeGraph::Find(int64_t session_id, int64_t seq) const {
@@ -60,35 +75,15 @@ std::vector<int> KeyframeGraph::Near(const Eigen::Isometry3d& T_world_camera, do
   return out;
 }
 
-std::vector<int> KeyframeGraph::ComponentRoots() const {
-  std::vector<int> parent(nodes_.size());
-  std::iota(parent.begin(), parent.end(), 0);
-  const std::function<int(int)> root = [&](int i) {
-    while (parent[static_cast<size_t>(i)] != i) {
-      parent[static_cast<size_t>(i)] = parent[static_cast<size_t>(parent[static_cast<size_t>(i)])];
-      i = parent[static_cast<size_t>(i)];
-    }
-    return i;
-  };
-  for (const GraphEdge& e : edges_) {
-    const int a = root(e.from), b = root(e.to);
-    // The smaller index becomes the root, so each component's root is its oldest keyframe.
-    if (a != b) parent[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
-  }
-  std::vector<int> roots;
-  for (int i = 0; i < size(); ++i) {
-    if (root(i) == i) roots.push_back(i);
-  }
-  return roots;
-}
-
 StatusOr<PoseGraphResult> KeyframeGraph::Optimise(const PoseGraphOptions& options) {
   std::vector<PoseGraphNode> nodes(nodes_.size());
   for (int i = 0; i < size(); ++i) {
     nodes[static_cast<size_t>(i)].id = i;
     nodes[static_cast<size_t>(i)].T_world_node = nodes_[static_cast<size_t>(i)].T_world_keyframe;
   }
-  for (int root : ComponentRoots()) nodes[static_cast<size_t>(root)].fixed = true;
+  for (int i = 0; i < size(); ++i) {
+    if (Root(i) == i) nodes[static_cast<size_t>(i)].fixed = true;
+  }
   std::vector<PoseGraphEdge> edges;
   edges.reserve(edges_.size());
   for (const GraphEdge& e : edges_) {

@@ -40,12 +40,15 @@ class KeyframeGraph {
  public:
   // Appends a keyframe (the next of its session) and returns its node index.
   int Add(GraphKeyframe keyframe);
-  void AddEdge(const GraphEdge& edge) { edges_.push_back(edge); }
+  void AddEdge(const GraphEdge& edge);
 
   int size() const { return static_cast<int>(nodes_.size()); }
   const GraphKeyframe& node(int index) const { return nodes_[static_cast<size_t>(index)]; }
   const std::vector<GraphEdge>& edges() const { return edges_; }
   std::optional<int> Find(int64_t session_id, int64_t seq) const;
+  // Keyframes joined by edges share a frame; separate components (sessions not yet linked by
+  // a loop) do not, so their poses cannot be compared.
+  bool SameComponent(int a, int b) const { return Root(a) == Root(b); }
   // The session's keyframes within `radius` places of `index` in its order (not itself).
   std::vector<int> SessionNeighbours(int index, int radius) const;
   // The latest keyframe of a session, if any.
@@ -61,10 +64,13 @@ class KeyframeGraph {
   StatusOr<PoseGraphResult> Optimise(const PoseGraphOptions& options);
 
  private:
-  std::vector<int> ComponentRoots() const;
+  int Root(int index) const;
 
   std::vector<GraphKeyframe> nodes_;
   std::vector<GraphEdge> edges_;
+  // Union-find over edges; each root is its component's oldest keyframe (the smaller index
+  // wins a union). Path halving on lookup, hence mutable.
+  mutable std::vector<int> parent_;
   std::map<std::pair<int64_t, int64_t>, int> by_session_seq_;
   std::map<int64_t, std::vector<int>> by_session_;  // node indices in session order
 };

@@ -6,6 +6,8 @@
 #include <string>
 #include <utility>
 
+#include "server/slam/feature_codec.h"
+
 namespace semmap {
 namespace {
 
@@ -45,13 +47,39 @@ Status SlamBackendOptions::Validate() const {
   return OkStatus();
 }
 
+StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id) {
+  MapSnapshot snapshot;
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<MapInfo> maps, store.ListMaps());
+  std::string name;
+  for (const MapInfo& m : maps) {
+    if (m.id == map_id) name = m.name;
+  }
+  if (name.empty()) return NotFoundError("map id " + std::to_string(map_id) + " not found");
+  SEMMAP_ASSIGN_OR_RETURN(snapshot.sessions, store.ListSessions(name));
+  for (const SessionInfo& s : snapshot.sessions) {
+    SEMMAP_ASSIGN_OR_RETURN(std::vector<KeyframeRecord> keyframes,
+                            store.ListKeyframeFeatures(s.id));
+    for (KeyframeRecord& kf : keyframes) {
+      if (!kf.features.empty()) snapshot.keyframes.push_back(std::move(kf));
+    }
+    SEMMAP_ASSIGN_OR_RETURN(std::vector<TrajectoryPose> frames,
+                            store.GetTrajectory(s.id, /*keyframes_only=*/false));
+    for (TrajectoryPose& p : frames) snapshot.frames.emplace_back(s.id, p);
+  }
+  SEMMAP_ASSIGN_OR_RETURN(snapshot.links, store.ListLinks(map_id));
+  return snapshot;
+}
+
 StatusOr<std::unique_ptr<SlamBackend>> SlamBackend::Start(
     int64_t map_id, SlamBackendOptions options, std::shared_ptr<const BowVocabulary> vocabulary,
-    StorageWriter* writer) {
+    StorageWriter* writer, const MapSnapshot* snapshot) {
   SEMMAP_RETURN_IF_ERROR(options.Validate());
   if (writer == nullptr) return InvalidArgumentError("slam back end needs a storage writer");
-  return std::unique_ptr<SlamBackend>(
+  std::unique_ptr<SlamBackend> backend(
       new SlamBackend(map_id, std::move(options), std::move(vocabulary), writer));
+  if (snapshot) SEMMAP_RETURN_IF_ERROR(backend->Restore(*snapshot).WithContext("map snapshot"));
+  backend->worker_ = std::thread([raw = backend.get()] { raw->Run(); });
+  return backend;
 }
 
 SlamBackend::SlamBackend(int64_t map_id, SlamBackendOptions options,
@@ -60,8 +88,62 @@ SlamBackend::SlamBackend(int64_t map_id, SlamBackendOptions options,
       options_(std::move(options)),
       vocabulary_(std::move(vocabulary)),
       writer_(writer),
-      queue_(options_.queue_capacity) {
-  worker_ = std::thread([this] { Run(); });
+      queue_(options_.queue_capacity) {}
+
+Status SlamBackend::Restore(const MapSnapshot& snapshot) {
+  for (const SessionInfo& s : snapshot.sessions) sessions_[s.id].camera = s.camera;
+  for (const KeyframeRecord& record : snapshot.keyframes) {
+    const auto session = sessions_.find(record.session_id);
+    if (session == sessions_.end()) continue;  // not of this map
+    SEMMAP_ASSIGN_OR_RETURN(FrameFeatures features,
+                            DecodeFeatures(record.features_format, record.features));
+    GraphKeyframe kf;
+    kf.session_id = record.session_id;
+    kf.seq = record.seq;
+    kf.T_world_keyframe = record.T_world_camera;
+    kf.features = std::make_shared<const FrameFeatures>(std::move(features));
+    kf.camera = &session->second.camera;
+    AddNode(std::move(kf));
+    ++stats_.restored_keyframes;
+  }
+  for (const LinkRecord& link : snapshot.links) {
+    const std::optional<int> from = graph_.Find(link.from_session_id, link.from_seq);
+    const std::optional<int> to = graph_.Find(link.to_session_id, link.to_seq);
+    if (!from || !to) continue;  // a keyframe without features (e.g. KNOWN_POSES)
+    GraphEdge edge;
+    edge.from = *from;
+    edge.to = *to;
+    edge.T_from_to = link.T_from_to;
+    edge.information = link.information;
+    edge.kind =
+        link.kind == LinkKind::kLoop ? PoseGraphEdgeKind::kLoop : PoseGraphEdgeKind::kOdometry;
+    graph_.AddEdge(edge);
+  }
+  // Each stored frame follows the latest keyframe at or before it, as it did when tracked.
+  std::map<int64_t, std::pair<int64_t, Eigen::Isometry3d>> last_keyframe;  // by session
+  for (const auto& [session_id, pose] : snapshot.frames) {
+    if (graph_.Find(session_id, pose.seq))
+      last_keyframe[session_id] = {pose.seq, pose.T_world_camera};
+    const auto anchor = last_keyframe.find(session_id);
+    if (anchor == last_keyframe.end()) continue;
+    anchors_[session_id].push_back(
+        {pose.seq, anchor->second.first, anchor->second.second.inverse() * pose.T_world_camera});
+  }
+  return OkStatus();
+}
+
+int SlamBackend::AddNode(GraphKeyframe keyframe) {
+  std::optional<BowVector> bow;
+  if (vocabulary_) {
+    // A keyframe the vocabulary cannot describe (e.g. SIFT features) is matched locally only.
+    StatusOr<BowVector> words = vocabulary_->Transform(keyframe.features->descriptors);
+    if (words.ok()) bow = std::move(words).value();
+  }
+  const int index = graph_.Add(std::move(keyframe));
+  // Add only fails for a malformed vector, which Transform never makes; such a keyframe would
+  // just not be found by place recognition.
+  if (bow && places_.Add(index, *bow).ok()) bow_[index] = std::move(*bow);
+  return index;
 }
 
 SlamBackend::~SlamBackend() { Stop(); }
@@ -170,7 +252,7 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   // tracker applied a correction still land in the corrected frame.
   if (previous)
     kf.T_world_keyframe = graph_.node(*previous).T_world_keyframe * event.T_previous_keyframe;
-  const int index = graph_.Add(std::move(kf));
+  const int index = AddNode(std::move(kf));
   if (previous) {
     GraphEdge edge;
     edge.from = *previous;
@@ -181,16 +263,7 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
     graph_.AddEdge(edge);
   }
 
-  std::optional<BowVector> bow;
-  if (vocabulary_) {
-    // A keyframe the vocabulary cannot describe (e.g. SIFT features) is matched locally only.
-    StatusOr<BowVector> words = vocabulary_->Transform(event.features->descriptors);
-    if (words.ok()) bow = std::move(words).value();
-  }
-  const std::optional<LoopClosureInfo> loop = CloseLoop(index, bow ? &*bow : nullptr);
-  // Add only fails for a malformed vector, which Transform never makes; such a keyframe would
-  // just not be found by place recognition.
-  if (bow && places_.Add(index, *bow).ok()) bow_[index] = std::move(*bow);
+  const std::optional<LoopClosureInfo> loop = CloseLoop(index);
   if (loop) OptimiseAndCorrect();
   Flush();
   std::lock_guard lock(mutex_);
@@ -199,18 +272,23 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   keyframe_ms_.Add(MsSince(t0));
 }
 
-std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query, const BowVector* bow) {
+std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query) {
   const GraphKeyframe& q = graph_.node(query);
+  const auto query_words = bow_.find(query);
+  const BowVector* bow = query_words == bow_.end() ? nullptr : &query_words->second;
   // Recent keyframes of the query's own session are odometry, not loops.
   const auto skip = [&](int i) {
     const GraphKeyframe& k = graph_.node(i);
     return i == query || (k.session_id == q.session_id &&
                           q.index_in_session - k.index_in_session < options_.exclude_recent);
   };
+  // Poses are comparable only within one component (a session not yet linked to the others
+  // has a frame of its own): other components are reached by place recognition alone.
+  const auto skip_local = [&](int i) { return skip(i) || !graph_.SameComponent(i, query); };
   std::vector<std::pair<int, bool>> candidates;  // (node, global)
   std::set<int> seen;
   for (int i : graph_.Near(q.T_world_keyframe, options_.local_radius_m,
-                           options_.local_max_angle_deg * kPi / 180.0, skip)) {
+                           options_.local_max_angle_deg * kPi / 180.0, skip_local)) {
     if (static_cast<int>(candidates.size()) >= options_.max_local_candidates) break;
     if (seen.insert(i).second) candidates.emplace_back(i, false);
   }

@@ -79,6 +79,20 @@ struct FrameAnchorEvent {
   Eigen::Isometry3d T_world_frame = Eigen::Isometry3d::Identity();
 };
 
+// What a map already holds when its back end starts (after a server restart): the sessions,
+// their keyframes with features, every frame's stored pose and the links. Restored keyframes
+// take part in loop closure like new ones, so a new session can close loops with old ones.
+struct MapSnapshot {
+  std::vector<SessionInfo> sessions;
+  std::vector<KeyframeRecord> keyframes;  // with features; those without are not restored
+  std::vector<std::pair<int64_t, TrajectoryPose>> frames;  // (session_id, pose)
+  std::vector<LinkRecord> links;
+};
+
+// Reads a map's snapshot from the store (on the storage writer's thread, so it is consistent
+// with every write queued before).
+StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id);
+
 struct LoopClosureInfo {
   int64_t query_session_id = 0, query_seq = 0;
   int64_t candidate_session_id = 0, candidate_seq = 0;
@@ -88,6 +102,7 @@ struct LoopClosureInfo {
 
 struct SlamBackendStats {
   uint64_t keyframes = 0;
+  uint64_t restored_keyframes = 0;
   uint64_t candidates = 0;
   uint64_t loops_accepted = 0;
   uint64_t rejected_geometry = 0;
@@ -106,9 +121,11 @@ class SlamBackend {
 
   // `vocabulary` may be null: then only local (pose-proximity) candidates are searched.
   // `writer` must outlive the back end.
+  // `snapshot` (may be null) is loaded before the worker starts; DATA_LOSS for features that
+  // do not decode.
   static StatusOr<std::unique_ptr<SlamBackend>> Start(
       int64_t map_id, SlamBackendOptions options, std::shared_ptr<const BowVocabulary> vocabulary,
-      StorageWriter* writer);
+      StorageWriter* writer, const MapSnapshot* snapshot = nullptr);
   ~SlamBackend();  // drains queued events, then joins the worker
   SlamBackend(const SlamBackend&) = delete;
   SlamBackend& operator=(const SlamBackend&) = delete;
@@ -148,12 +165,15 @@ class SlamBackend {
 
   SlamBackend(int64_t map_id, SlamBackendOptions options,
               std::shared_ptr<const BowVocabulary> vocabulary, StorageWriter* writer);
+  Status Restore(const MapSnapshot& snapshot);
+  // Graph node and place-database entry of a keyframe (no loop search).
+  int AddNode(GraphKeyframe keyframe);
   void Run();
   void HandleKeyframe(KeyframeEvent& event);
   void HandleFrame(const FrameAnchorEvent& event);
   void HandleDrain(const DrainRequest& request);
   // Loop candidates for node `query`, verified; the first accepted one becomes a loop edge.
-  std::optional<LoopClosureInfo> CloseLoop(int query, const BowVector* bow);
+  std::optional<LoopClosureInfo> CloseLoop(int query);
   void OptimiseAndCorrect();
   void Flush();  // submits the pending batch
   Eigen::Isometry3d FramePose(int64_t session_id, int64_t anchor_seq,

@@ -47,6 +47,7 @@ class SqliteMapStore final : public MapStore {
   // Without images the records keep their formats but no bytes.
   StatusOr<std::vector<KeyframeRecord>> ListKeyframes(int64_t session_id,
                                                       bool with_images) override;
+  StatusOr<std::vector<KeyframeRecord>> ListKeyframeFeatures(int64_t session_id) override;
   StatusOr<std::vector<LinkRecord>> ListLinks(int64_t map_id) override;
   // Also moves the frames (trajectory rows) of those keyframes, so a keyframe has one pose.
   Status UpdateKeyframePoses(

@@ -127,6 +127,13 @@ StatusOr<std::vector<KeyframeRecord>> SqliteMapStore::ListKeyframes(int64_t sess
   return keyframes;
 }
 
+StatusOr<std::vector<KeyframeRecord>> SqliteMapStore::ListKeyframeFeatures(int64_t session_id) {
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<KeyframeRecord> keyframes,
+                          ListKeyframes(session_id, /*with_images=*/false));
+  for (KeyframeRecord& kf : keyframes) SEMMAP_RETURN_IF_ERROR(ReadKeyframeFeatures(kf));
+  return keyframes;
+}
+
 StatusOr<std::vector<LinkRecord>> SqliteMapStore::ListLinks(int64_t map_id) {
   SEMMAP_RETURN_IF_ERROR(MapName(map_id).status());
   SEMMAP_ASSIGN_OR_RETURN(

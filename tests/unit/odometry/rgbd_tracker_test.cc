@@ -228,12 +228,180 @@ TEST(RgbdTrackerTest, ApplyCorrectionReexpressesTrackingInTheCorrectedFrame) {
   EXPECT_GT(keyframes_after, 0) << "the corrected keyframe poses were used too";
 }
 
+// Feeds frames to a tracker with increasing stamps (1/30 s apart) and checks every call.
+class Feeder {
+ public:
+  Feeder(const CameraCalibration& camera, const synth::Renderer& renderer,
+         RgbdTrackerOptions options)
+      : camera_(camera), renderer_(renderer), tracker_(MakeTracker(camera, options)) {}
+
+  TrackingResult Pose(const Eigen::Isometry3d& T_world_camera, bool with_depth = true) {
+    const synth::RenderedFrame f = renderer_.Render(T_world_camera);
+    return Feed(f.bgr, with_depth ? f.depth : cv::Mat());
+  }
+  // A covered lens: black, and depth with no valid pixel.
+  TrackingResult Blank() {
+    return Feed(cv::Mat(camera_.height, camera_.width, CV_8UC3, cv::Scalar(0, 0, 0)),
+                cv::Mat(camera_.height, camera_.width, CV_16UC1, cv::Scalar(0)));
+  }
+  RgbdTracker& tracker() { return tracker_; }
+
+ private:
+  TrackingResult Feed(const cv::Mat& bgr, const cv::Mat& depth) {
+    stamp_ns_ += 33'333'333;
+    StatusOr<TrackingResult> r = tracker_.Track(
+        bgr, depth.empty() ? DecodedDepth{} : Depth(depth, synth::kDepthScale), stamp_ns_);
+    EXPECT_TRUE(r.ok()) << r.status().ToString();
+    if (!r.ok()) return TrackingResult{};
+    EXPECT_TRUE(r->T_world_camera.matrix().allFinite());
+    return *r;
+  }
+
+  CameraCalibration camera_;
+  const synth::Renderer& renderer_;
+  RgbdTracker tracker_;
+  int64_t stamp_ns_ = 1'000'000'000;
+};
+
+// Frames 0..19 of the circle, then a cut to the far side (frames 60.., 180 degrees of heading
+// away): neither the local map nor the kept keyframes see it. After reinitialise_after_lost
+// lost frames the next one starts a new segment at the last pose, and tracking goes on from
+// there with the right relative motion.
+TEST(RgbdTrackerTest, SustainedLossStartsANewSegmentThatTracksTheRelativeMotion) {
+  const CameraCalibration camera = synth::DefaultSyntheticCamera(320, 240);
+  const synth::Renderer renderer = MakeRenderer(camera);
+  const std::vector<StampedPose> gt = Circle(120);
+  RgbdTrackerOptions options;
+  options.T_world_first = gt.front().T_world_camera;
+  ASSERT_EQ(options.reinitialise_after_lost, 5);
+  Feeder feed(camera, renderer, options);
+  Eigen::Isometry3d T_world_last = Eigen::Isometry3d::Identity();
+  for (size_t i = 0; i < 20; ++i) {
+    const TrackingResult r = feed.Pose(gt[i].T_world_camera);
+    ASSERT_EQ(r.state, TrackingState::kTracking) << i;
+    EXPECT_FALSE(r.new_segment) << i;
+    T_world_last = r.T_world_camera;
+  }
+  const int keyframes_before = feed.tracker().num_keyframes();
+  for (size_t i = 60; i < 65; ++i) {
+    const TrackingResult r = feed.Pose(gt[i].T_world_camera);
+    EXPECT_EQ(r.state, TrackingState::kLost) << i;
+    EXPECT_FALSE(r.is_keyframe) << i;
+    EXPECT_FALSE(r.new_segment) << i;
+    EXPECT_TRUE(r.T_world_camera.isApprox(T_world_last)) << i;
+  }
+  const TrackingResult start = feed.Pose(gt[65].T_world_camera);
+  ASSERT_EQ(start.state, TrackingState::kReinitialised);
+  EXPECT_EQ(TrackingStateName(start.state), "reinitialised");
+  EXPECT_TRUE(start.new_segment);
+  EXPECT_TRUE(start.is_keyframe);
+  ASSERT_NE(start.keyframe_features, nullptr);
+  EXPECT_GE(start.keyframe_features->NumWithDepth(),
+            2 * static_cast<size_t>(options.motion.min_inliers));
+  EXPECT_TRUE(start.information.isZero());
+  EXPECT_TRUE(start.T_world_camera.isApprox(T_world_last)) << "placed at the last known pose";
+  EXPECT_EQ(feed.tracker().num_keyframes(), keyframes_before + 1);
+  for (size_t i = 66; i < 90; ++i) {
+    const TrackingResult r = feed.Pose(gt[i].T_world_camera);
+    ASSERT_EQ(r.state, TrackingState::kTracking) << i;
+    EXPECT_FALSE(r.new_segment) << i;
+    const Eigen::Isometry3d truth = gt[65].T_world_camera.inverse() * gt[i].T_world_camera;
+    const Eigen::Isometry3d estimate = start.T_world_camera.inverse() * r.T_world_camera;
+    const Eigen::Isometry3d error = truth.inverse() * estimate;
+    EXPECT_LT(error.translation().norm(), 0.01) << i;
+    EXPECT_LT(odometry_test::AngleDeg(error), 0.5) << i;
+  }
+}
+
+// A re-initialisation frame that is too poor (no keypoints with depth) stays lost and the next
+// one is tried; frames without depth do not count towards the loss.
+TEST(RgbdTrackerTest, PoorAndDepthlessFramesDoNotStartASegment) {
+  const CameraCalibration camera = synth::DefaultSyntheticCamera(320, 240);
+  const synth::Renderer renderer = MakeRenderer(camera);
+  const std::vector<StampedPose> gt = Circle(120);
+  RgbdTrackerOptions options;
+  options.T_world_first = gt.front().T_world_camera;
+  options.reinitialise_after_lost = 4;
+  Feeder feed(camera, renderer, options);
+  for (size_t i = 0; i < 20; ++i) {
+    ASSERT_EQ(feed.Pose(gt[i].T_world_camera).state, TrackingState::kTracking) << i;
+  }
+  // Lost with depth: 60, 61, 63, 64 (4); 62 has no depth and does not count.
+  for (size_t i = 60; i < 65; ++i) {
+    const TrackingResult r = feed.Pose(gt[i].T_world_camera, /*with_depth=*/i != 62);
+    EXPECT_EQ(r.state, TrackingState::kLost) << i;
+    EXPECT_FALSE(r.is_keyframe) << i;
+  }
+  // Past the threshold, but nothing to start from.
+  for (int k = 0; k < 2; ++k) {
+    const TrackingResult blank = feed.Blank();
+    EXPECT_EQ(blank.state, TrackingState::kLost) << k;
+    EXPECT_FALSE(blank.new_segment) << k;
+    EXPECT_FALSE(blank.is_keyframe) << k;
+  }
+  // Past the threshold but without depth: no segment either.
+  EXPECT_EQ(feed.Pose(gt[65].T_world_camera, /*with_depth=*/false).state, TrackingState::kLost);
+  const TrackingResult start = feed.Pose(gt[66].T_world_camera);
+  EXPECT_EQ(start.state, TrackingState::kReinitialised);
+  EXPECT_TRUE(start.new_segment);
+  EXPECT_TRUE(start.is_keyframe);
+  const TrackingResult next = feed.Pose(gt[67].T_world_camera);
+  EXPECT_EQ(next.state, TrackingState::kTracking);
+  EXPECT_FALSE(next.new_segment);
+}
+
+TEST(RgbdTrackerTest, WithReinitialisationDisabledALostTrackerStaysLost) {
+  const CameraCalibration camera = synth::DefaultSyntheticCamera(320, 240);
+  const synth::Renderer renderer = MakeRenderer(camera);
+  const std::vector<StampedPose> gt = Circle(120);
+  RgbdTrackerOptions options;
+  options.T_world_first = gt.front().T_world_camera;
+  options.reinitialise_after_lost = 0;
+  Feeder feed(camera, renderer, options);
+  for (size_t i = 0; i < 20; ++i) {
+    ASSERT_EQ(feed.Pose(gt[i].T_world_camera).state, TrackingState::kTracking) << i;
+  }
+  for (size_t i = 60; i < 80; ++i) {
+    const TrackingResult r = feed.Pose(gt[i].T_world_camera);
+    EXPECT_EQ(r.state, TrackingState::kLost) << i;
+    EXPECT_FALSE(r.is_keyframe) << i;
+    EXPECT_FALSE(r.new_segment) << i;
+  }
+}
+
+// Relocalisation is tried before re-initialisation, however long the loss: back at an old
+// view after more than reinitialise_after_lost lost frames, the old map is found again.
+TEST(RgbdTrackerTest, RelocalisationIsPreferredToANewSegment) {
+  const CameraCalibration camera = synth::DefaultSyntheticCamera(320, 240);
+  const synth::Renderer renderer = MakeRenderer(camera);
+  const std::vector<StampedPose> gt = Circle(120);
+  RgbdTrackerOptions options;
+  options.T_world_first = gt.front().T_world_camera;
+  options.relocalisation_keyframes = 30;
+  Feeder feed(camera, renderer, options);
+  for (size_t i = 0; i <= 30; ++i) {
+    ASSERT_EQ(feed.Pose(gt[i].T_world_camera).state, TrackingState::kTracking) << i;
+  }
+  for (int k = 0; k < options.reinitialise_after_lost + 3; ++k) {
+    EXPECT_EQ(feed.Blank().state, TrackingState::kLost) << k;
+  }
+  const TrackingResult back = feed.Pose(gt[2].T_world_camera);
+  EXPECT_EQ(back.state, TrackingState::kRelocalised);
+  EXPECT_FALSE(back.new_segment);
+  EXPECT_LT((gt[2].T_world_camera.inverse() * back.T_world_camera).translation().norm(), 0.03);
+}
+
 TEST(RgbdTrackerTest, RejectsBadOptionsAndInput) {
   RgbdTrackerOptions bad;
   EXPECT_EQ(RgbdTracker::Create(bad).status().code(), StatusCode::kInvalidArgument);  // no camera
   bad.camera = synth::DefaultSyntheticCamera(320, 240);
   bad.min_inlier_fraction = 1.5;
   EXPECT_EQ(RgbdTracker::Create(bad).status().code(), StatusCode::kInvalidArgument);
+  bad.min_inlier_fraction = 0.4;
+  bad.reinitialise_after_lost = -1;
+  EXPECT_EQ(RgbdTracker::Create(bad).status().code(), StatusCode::kInvalidArgument);
+  bad.reinitialise_after_lost = 0;  // disabled: valid
+  EXPECT_TRUE(RgbdTracker::Create(bad).ok());
   RgbdTracker tracker = MakeTracker(synth::DefaultSyntheticCamera(320, 240));
   const cv::Mat grey(240, 320, CV_8UC1, cv::Scalar(0));
   EXPECT_EQ(tracker.Track(grey, Depth(cv::Mat(120, 160, CV_16UC1), 5000), 1).status().code(),

@@ -7,6 +7,7 @@
 
 #include <cmath>
 
+#include "server/slam/feature_codec.h"
 #include "storage/sqlite/sqlite_map_store.h"
 #include "tests/testing/temp_dir.h"
 #include "tests/unit/odometry/odometry_test_util.h"
@@ -83,15 +84,18 @@ class SlamBackendTest : public ::testing::Test {
   }
 
   // Streams the keyframes (and one in-between frame each) as a session would: rows first,
-  // then the events. Returns the drifted poses the "tracker" reported.
-  std::vector<Eigen::Isometry3d> Stream(SlamBackend& backend, const std::vector<Keyframe>& kfs) {
+  // then the events. The "tracker" starts at T_first and accumulates drifted steps (exact ones
+  // without drift). Returns the poses it reported.
+  std::vector<Eigen::Isometry3d> Stream(SlamBackend& backend, const std::vector<Keyframe>& kfs,
+                                        std::optional<Eigen::Isometry3d> T_first = std::nullopt,
+                                        bool drift = true) {
     std::vector<Eigen::Isometry3d> reported;
-    Eigen::Isometry3d T = kfs[0].T_true;
+    Eigen::Isometry3d T = T_first ? *T_first : kfs[0].T_true;
     for (size_t i = 0; i < kfs.size(); ++i) {
-      const Eigen::Isometry3d step = i == 0
-                                         ? Eigen::Isometry3d::Identity()
-                                         : DriftedStep(kfs[i - 1].T_true.inverse() * kfs[i].T_true);
-      T = T * step;
+      const Eigen::Isometry3d true_step =
+          i == 0 ? Eigen::Isometry3d::Identity() : kfs[i - 1].T_true.inverse() * kfs[i].T_true;
+      const Eigen::Isometry3d step = drift ? DriftedStep(true_step) : true_step;
+      if (i > 0) T = T * step;
       reported.push_back(T);
       // The frame after each keyframe sits 1 cm ahead of it.
       Eigen::Isometry3d T_kf_next = Eigen::Isometry3d::Identity();
@@ -105,6 +109,8 @@ class SlamBackendTest : public ::testing::Test {
       record.seq = kfs[i].seq;
       record.stamp_ns = pose.stamp_ns;
       record.T_world_camera = T;
+      record.features_format = std::string(kFeatureCodecFormat);
+      record.features = EncodeFeatures(*kfs[i].features);
       batch.keyframes.push_back(record);
       EXPECT_TRUE(writer_->Submit(std::move(batch), [](const Status&, const WriteResult&) {}).ok());
 
@@ -127,8 +133,11 @@ class SlamBackendTest : public ::testing::Test {
     return reported;
   }
 
-  std::unique_ptr<SlamBackend> Start(SlamBackendOptions options = {}) {
-    auto backend = SlamBackend::Start(session_.map_id, options, nullptr, writer_.get());
+  std::unique_ptr<SlamBackend> Start(SlamBackendOptions options = {},
+                                     std::shared_ptr<const BowVocabulary> vocabulary = nullptr,
+                                     const MapSnapshot* snapshot = nullptr) {
+    auto backend = SlamBackend::Start(session_.map_id, options, std::move(vocabulary),
+                                      writer_.get(), snapshot);
     EXPECT_TRUE(backend.ok()) << backend.status().ToString();
     (*backend)->RegisterSession(session_.id, synth::DefaultSyntheticCamera(),
                                 [this](const Eigen::Isometry3d& T) {
@@ -193,6 +202,63 @@ TEST_F(SlamBackendTest, DriftingLapIsClosedAndStoredPosesAreCorrected) {
   int loops = 0;
   for (const LinkRecord& l : *links) loops += l.kind == LinkKind::kLoop;
   EXPECT_EQ(loops, static_cast<int>(stats.loops_accepted));
+}
+
+// A second session after a restart: the back end starts from the stored map, the new session
+// begins in a frame of its own (its tracker knows nothing of the first), place recognition
+// finds the first session's keyframes, and the closed loop brings the new session into the
+// map's frame.
+TEST_F(SlamBackendTest, SessionAfterRestartJoinsTheStoredMap) {
+  StatusOr<BowVocabulary> vocabulary =
+      BowVocabulary::Load(std::string(SEMMAP_SOURCE_DIR) + "/models/orb_vocab.bin");
+  ASSERT_TRUE(vocabulary.ok()) << vocabulary.status().ToString();
+  auto words = std::make_shared<const BowVocabulary>(std::move(vocabulary).value());
+  const std::vector<Keyframe> lap = RenderKeyframes(kLapFrames + 1);
+  {
+    std::unique_ptr<SlamBackend> first = Start({}, words);
+    Stream(*first, lap, std::nullopt, /*drift=*/false);
+    ASSERT_TRUE(first->Drain().ok());
+  }  // the server stops
+
+  StatusOr<MapSnapshot> snapshot = MapSnapshot{};
+  ASSERT_TRUE(writer_
+                  ->RunSync([&](MapStore& store) {
+                    snapshot = ReadMapSnapshot(store, session_.map_id);
+                    return snapshot.status();
+                  })
+                  .ok());
+  EXPECT_EQ(snapshot->keyframes.size(), lap.size());
+  const int64_t first_session = session_.id;
+  // The second session walks a third of the lap again, starting in a frame of its own.
+  ASSERT_TRUE(writer_
+                  ->RunSync([&](MapStore& s) -> Status {
+                    SessionInfo info = session_;
+                    info.name = "again";
+                    SEMMAP_ASSIGN_OR_RETURN(session_, s.CreateSession(info));
+                    return OkStatus();
+                  })
+                  .ok());
+  corrections_ = 0;
+  std::unique_ptr<SlamBackend> second = Start({}, words, &*snapshot);
+  EXPECT_EQ(second->stats().restored_keyframes, lap.size());
+  const std::vector<Keyframe> again(lap.begin() + 10, lap.begin() + 20);
+  Stream(*second, again, Eigen::Isometry3d::Identity(), /*drift=*/false);
+  ASSERT_TRUE(second->Drain().ok());
+  const SlamBackendStats stats = second->stats();
+  ASSERT_GE(stats.loops_accepted, 1u);
+  EXPECT_TRUE(stats.loops.front().global);
+  EXPECT_EQ(stats.loops.front().candidate_session_id, first_session);
+  EXPECT_GE(corrections_, 1);
+  auto stored = reader_->ListKeyframes(session_.id, false);
+  ASSERT_TRUE(stored.ok());
+  ASSERT_EQ(stored->size(), again.size());
+  double worst = 0;
+  for (size_t i = 0; i < again.size(); ++i) {
+    worst = std::max(
+        worst, ((*stored)[i].T_world_camera.translation() - again[i].T_true.translation()).norm());
+  }
+  std::printf("second session joined the stored map: max position error %.4f m\n", worst);
+  EXPECT_LT(worst, 0.02);
 }
 
 TEST_F(SlamBackendTest, PathThatNeverRevisitsHasNoLoop) {

@@ -595,6 +595,12 @@ TEST_F(SqliteMapStoreTest, KeyframeFeaturesRoundTripAndAreOptional) {
   auto bare = store_->ListKeyframes(s.id, /*with_images=*/false);
   ASSERT_OK(bare.status());
   EXPECT_TRUE((*bare)[0].features.empty());
+  auto features_only = store_->ListKeyframeFeatures(s.id);
+  ASSERT_OK(features_only.status());
+  ASSERT_EQ(features_only->size(), 2u);
+  EXPECT_EQ((*features_only)[0].features, with.features);
+  EXPECT_TRUE((*features_only)[0].colour.bytes.empty());
+  EXPECT_TRUE((*features_only)[1].features.empty());
 }
 
 TEST_F(SqliteMapStoreTest, FeaturesWithoutFormatAreRejected) {

@@ -62,6 +62,9 @@ class RecordingStore final : public MapStore {
   StatusOr<std::vector<KeyframeRecord>> ListKeyframes(int64_t id, bool images) override {
     return inner_->ListKeyframes(id, images);
   }
+  StatusOr<std::vector<KeyframeRecord>> ListKeyframeFeatures(int64_t id) override {
+    return inner_->ListKeyframeFeatures(id);
+  }
   StatusOr<std::vector<LinkRecord>> ListLinks(int64_t id) override { return inner_->ListLinks(id); }
   Status UpdateKeyframePoses(
       const std::vector<std::pair<int64_t, Eigen::Isometry3d>>& poses) override {
