@@ -7,8 +7,8 @@
 #include <random>
 #include <utility>
 
+#include "common/hamming.h"
 #include "server/slam/bow_vocabulary.h"
-#include "server/slam/hamming.h"
 
 namespace semmap {
 namespace {

@@ -9,8 +9,8 @@
 #include <random>
 #include <set>
 
+#include "common/hamming.h"
 #include "common/sha256.h"
-#include "server/slam/hamming.h"
 #include "tests/testing/temp_dir.h"
 
 namespace semmap {
