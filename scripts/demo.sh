@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The end-to-end demo: start semmapd on its embedded SQLite store, stream the bundled real
-# sample (TUM fr3/teddy, 80 frames, with its ground-truth poses), show what was stored, and
-# stop the server cleanly. Run through `make demo` (which installs and builds first).
+# sample (TUM fr3/teddy, 80 frames) as an RGBD visual SLAM session, compare the trajectory the
+# server estimated with the ground truth, show what was stored, and stop the server cleanly. Run through `make demo` (which installs and builds first).
 set -euo pipefail
 
 BUILD_DIR=${BUILD_DIR:-build/release}
@@ -22,9 +22,11 @@ export SEMMAP_SERVER="$SEMMAPD_ADDR"
 echo "== semmapd serving on $SEMMAPD_ADDR, data in $DATA_DIR"
 "$SEMMAP" health
 
-echo "== streaming $SAMPLE (known poses from its ground truth)"
-"$SEMMAP" ingest "$SAMPLE" --map demo --session teddy --poses groundtruth.txt \
+echo "== streaming $SAMPLE (RGBD: the server tracks the camera and maps)"
+"$SEMMAP" ingest "$SAMPLE" --map demo --session teddy \
   --trajectory-out "$DATA_DIR/teddy_trajectory.txt"
+echo "== accuracy of the estimated trajectory against the sample's ground truth"
+"$SEMMAP" eval ate "$SAMPLE/groundtruth.txt" "$DATA_DIR/teddy_trajectory.txt"
 
 echo "== maps"
 "$SEMMAP" maps

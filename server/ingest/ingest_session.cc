@@ -1,6 +1,7 @@
 #include "server/ingest/ingest_session.h"
 
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <string>
 #include <utility>
@@ -425,6 +426,22 @@ void IngestSession::Finish(Status status) {
       if (loop.query_session_id == session_->id) ++loop_closures;
     }
     backend_stages = {stats.keyframe_ms, stats.optimise_ms};
+    // One line per session for operators: what the map's back end did so far.
+    std::fprintf(stderr,
+                 "semmapd: session '%s' of map '%s' ended: %llu lost frames, %llu restarts; map "
+                 "back end: %llu keyframes (%llu restored), %llu loop candidates, %llu accepted, "
+                 "%llu rejected by geometry, %llu by xi, %llu optimisations, queue high water "
+                 "%zu\n",
+                 session_->name.c_str(), session_->map_name.c_str(),
+                 static_cast<unsigned long long>(lost_frames_),
+                 static_cast<unsigned long long>(segments_),
+                 static_cast<unsigned long long>(stats.keyframes),
+                 static_cast<unsigned long long>(stats.restored_keyframes),
+                 static_cast<unsigned long long>(stats.candidates),
+                 static_cast<unsigned long long>(stats.loops_accepted),
+                 static_cast<unsigned long long>(stats.rejected_geometry),
+                 static_cast<unsigned long long>(stats.rejected_xi),
+                 static_cast<unsigned long long>(stats.optimisations), stats.queue_high_water);
   }
   // Whatever was submitted is committed (or failed) before the client hears the final status,
   // so the summary's durable_seq is exact.
