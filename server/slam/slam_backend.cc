@@ -44,6 +44,13 @@ Status SlamBackendOptions::Validate() const {
     return InvalidArgumentError("slam global score thresholds must be in [0, 1]");
   }
   if (xi_neighbours < 1) return InvalidArgumentError("slam xi_neighbours must be >= 1");
+  if (!(edge_sigma_floor_m >= 0) || !(edge_sigma_floor_rad >= 0)) {
+    return InvalidArgumentError("slam edge sigma floors must be >= 0");
+  }
+  if (max_deferred_loops < 1) return InvalidArgumentError("slam max_deferred_loops must be >= 1");
+  if (!(consistent_loop_chi2 >= 0)) {
+    return InvalidArgumentError("slam consistent_loop_chi2 must be >= 0");
+  }
   return OkStatus();
 }
 
@@ -114,7 +121,7 @@ Status SlamBackend::Restore(const MapSnapshot& snapshot) {
     edge.from = *from;
     edge.to = *to;
     edge.T_from_to = link.T_from_to;
-    edge.information = link.information;
+    edge.information = WithNoiseFloor(link.information);
     edge.kind =
         link.kind == LinkKind::kLoop ? PoseGraphEdgeKind::kLoop : PoseGraphEdgeKind::kOdometry;
     graph_.AddEdge(edge);
@@ -258,13 +265,18 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
     edge.from = *previous;
     edge.to = index;
     edge.T_from_to = event.T_previous_keyframe;
-    edge.information = event.information;
+    edge.information = WithNoiseFloor(event.information);
     edge.kind = PoseGraphEdgeKind::kOdometry;
     graph_.AddEdge(edge);
   }
 
   const std::optional<LoopClosureInfo> loop = CloseLoop(index);
-  if (loop) OptimiseAndCorrect();
+  if (loop) {
+    if (!LoopAgreesWithGraph(graph_.edges().back()) ||
+        ++deferred_loops_ >= options_.max_deferred_loops) {
+      OptimiseAndCorrect();
+    }
+  }
   Flush();
   std::lock_guard lock(mutex_);
   ++stats_.keyframes;
@@ -339,7 +351,7 @@ std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query) {
     edge.from = candidate;
     edge.to = query;
     edge.T_from_to = verified->T_candidate_query;
-    edge.information = verified->information;
+    edge.information = WithNoiseFloor(verified->information);
     edge.kind = PoseGraphEdgeKind::kLoop;
     graph_.AddEdge(edge);
 
@@ -351,7 +363,7 @@ std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query) {
     link.to_session_id = q.session_id;
     link.to_seq = q.seq;
     link.T_from_to = edge.T_from_to;
-    link.information = edge.information;
+    link.information = verified->information;
     pending_.links.push_back(link);
 
     LoopClosureInfo info;
@@ -366,11 +378,40 @@ std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query) {
   return std::nullopt;
 }
 
+Eigen::Matrix<double, 6, 6> SlamBackend::WithNoiseFloor(
+    const Eigen::Matrix<double, 6, 6>& information) const {
+  Eigen::Matrix<double, 6, 1> floor;
+  const double t = options_.edge_sigma_floor_m * options_.edge_sigma_floor_m;
+  const double r = options_.edge_sigma_floor_rad * options_.edge_sigma_floor_rad;
+  floor << t, t, t, r, r, r;
+  const Eigen::Matrix<double, 6, 6> m =
+      Eigen::Matrix<double, 6, 6>::Identity() + floor.asDiagonal() * information;
+  Eigen::Matrix<double, 6, 6> floored = information * m.inverse();
+  return 0.5 * (floored + floored.transpose());  // symmetric up to rounding
+}
+
+bool SlamBackend::LoopAgreesWithGraph(const GraphEdge& loop) {
+  if (options_.consistent_loop_chi2 <= 0) return false;
+  PoseGraphEdge edge;
+  edge.from = loop.from;
+  edge.to = loop.to;
+  edge.T_from_to = loop.T_from_to;
+  edge.information = loop.information;
+  const double chi2 = PoseGraphEdgeResidual(edge, graph_.node(loop.from).T_world_keyframe,
+                                            graph_.node(loop.to).T_world_keyframe)
+                          .squaredNorm();
+  if (chi2 > options_.consistent_loop_chi2) return false;
+  std::lock_guard lock(mutex_);
+  ++stats_.loops_already_consistent;
+  return true;
+}
+
 void SlamBackend::OptimiseAndCorrect() {
   const Clock::time_point t0 = Clock::now();
   std::vector<Eigen::Isometry3d> before(static_cast<size_t>(graph_.size()));
   for (int i = 0; i < graph_.size(); ++i)
     before[static_cast<size_t>(i)] = graph_.node(i).T_world_keyframe;
+  deferred_loops_ = 0;
   StatusOr<PoseGraphResult> result = graph_.Optimise(options_.pose_graph);
   if (!result.ok()) return;  // the graph keeps its poses; the loop edge stays for next time
   // Every keyframe and frame that moved is rewritten.
@@ -420,6 +461,7 @@ void SlamBackend::Flush() {
 }
 
 void SlamBackend::HandleDrain(const DrainRequest& request) {
+  if (deferred_loops_ > 0) OptimiseAndCorrect();  // a finished session gets its final poses
   Flush();
   Status status;
   {

@@ -52,6 +52,19 @@ struct SlamBackendOptions {
   double min_global_score = 0.02;
   double min_global_score_ratio = 0.6;
   int xi_neighbours = 2;  // the candidate's session neighbours (each side) for N_n
+  // Noise floor added to every edge's covariance in the graph (metres, radians): tracking and
+  // loop solves report the precision of one PnP, not the model errors around it (depth bias,
+  // rolling shutter, calibration), and would make edges of a few millimetres' disagreement
+  // look like outliers. Stored links keep the raw information.
+  double edge_sigma_floor_m = 0.002;
+  double edge_sigma_floor_rad = 0.002;
+  // A loop whose whitened residual at the current poses is below this chi-square (6 degrees
+  // of freedom; 12.59 = 95 %) already agrees with the graph: it is kept as an edge, but the
+  // graph is not optimised for it at once (revisiting a well-mapped place costs no optimisation
+  // per keyframe); such loops are optimised in batches of max_deferred_loops and whenever a
+  // session ends (Drain). 0: optimise after every loop.
+  double consistent_loop_chi2 = 12.59;
+  int max_deferred_loops = 10;
 
   Status Validate() const;
 };
@@ -108,6 +121,7 @@ struct SlamBackendStats {
   uint64_t rejected_geometry = 0;
   uint64_t rejected_xi = 0;
   uint64_t optimisations = 0;
+  uint64_t loops_already_consistent = 0;  // accepted, but needed no optimisation
   size_t queue_high_water = 0;
   LatencySummary keyframe_ms;  // worker time per keyframe (candidates, verification)
   LatencySummary optimise_ms;
@@ -174,6 +188,10 @@ class SlamBackend {
   void HandleDrain(const DrainRequest& request);
   // Loop candidates for node `query`, verified; the first accepted one becomes a loop edge.
   std::optional<LoopClosureInfo> CloseLoop(int query);
+  bool LoopAgreesWithGraph(const GraphEdge& loop);  // counts the ones that do
+  // (Sigma + floor)^-1 for Sigma = information^-1, computed without inverting a possibly
+  // singular information: I (Id + F I)^-1.
+  Eigen::Matrix<double, 6, 6> WithNoiseFloor(const Eigen::Matrix<double, 6, 6>& information) const;
   void OptimiseAndCorrect();
   void Flush();  // submits the pending batch
   Eigen::Isometry3d FramePose(int64_t session_id, int64_t anchor_seq,
@@ -191,6 +209,7 @@ class SlamBackend {
   std::map<int, BowVector> bow_;  // by node index (for the score against the previous one)
   WriteBatch pending_;
   std::map<int64_t, std::vector<FrameAnchor>> anchors_;  // by session, in seq order
+  int deferred_loops_ = 0;  // consistent loops added since the last optimisation
 
   mutable std::mutex mutex_;  // sessions_, stats_, write bookkeeping
   // Entries are never erased: graph keyframes point at their session's camera.
