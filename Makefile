@@ -32,6 +32,10 @@ bench: build
 	build/release/bench/decode_bench
 	build/release/bench/eval_bench
 	build/release/bench/synth_bench
+	build/release/bench/tracking_bench
+	build/release/bench/matcher_bench
+	build/release/bench/place_recognition_bench
+	bash bench/slam_bench.sh
 
 format:
 	git ls-files '*.cc' '*.h' | xargs clang-format -i

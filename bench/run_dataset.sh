@@ -38,7 +38,7 @@ OUT=${OUT:-$(mktemp -d -t semmap-bench-XXXXXX)}
 mkdir -p "$OUT"
 data_dir=$(mktemp -d -t semmap-bench-db-XXXXXX)
 pid=""
-trap '[ -n "$pid" ] && kill -KILL $pid 2>/dev/null; rm -rf "$data_dir"' EXIT
+trap '{ [ -n "$pid" ] && kill -KILL $pid 2>/dev/null; } || true; rm -rf "$data_dir"' EXIT
 source scripts/semmapd_lib.sh
 start_semmapd "$SEMMAPD" "$data_dir"
 pid=$SEMMAPD_PID

@@ -45,6 +45,8 @@ struct TrajectoryPose {
   int64_t stamp_ns = 0;  // sensor time stamp in nanoseconds
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
   bool is_keyframe = false;
+  // Visual tracking could not place this frame: the pose is the last good one (a guess).
+  bool lost = false;
 };
 
 // An image as stored: encoded bytes ("png", "jpeg") so keyframes stay compact.

@@ -161,6 +161,7 @@ void ToProto(const TrajectoryPose& p, v1::TrajectoryPose* out) {
   ToProto(p.stamp_ns, out->mutable_timestamp());
   ToProto(p.T_world_camera, out->mutable_t_world_camera());
   out->set_is_keyframe(p.is_keyframe);
+  out->set_lost(p.lost);
 }
 
 TrajectoryPose FromProto(const v1::TrajectoryPose& in) {
@@ -169,6 +170,7 @@ TrajectoryPose FromProto(const v1::TrajectoryPose& in) {
   p.stamp_ns = FromProto(in.timestamp());
   p.T_world_camera = ToIsometry(FromProto(in.t_world_camera()));
   p.is_keyframe = in.is_keyframe();
+  p.lost = in.lost();
   return p;
 }
 

@@ -49,7 +49,8 @@ nlohmann::json ToJson(const TrajectoryPose& p) {
           {"stamp", FormatStampSeconds(p.stamp_ns)},
           {"t", {tq.t.x(), tq.t.y(), tq.t.z()}},
           {"q", {tq.q.x(), tq.q.y(), tq.q.z(), tq.q.w()}},
-          {"keyframe", p.is_keyframe}};
+          {"keyframe", p.is_keyframe},
+          {"lost", p.lost}};
 }
 
 }  // namespace semmap::cli

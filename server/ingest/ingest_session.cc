@@ -277,6 +277,7 @@ Status IngestSession::HandleFrame(IngestFrame& frame,
   ack.seq = frame.seq;
   ack.T_world_camera = estimate.T_world_camera;
   ack.is_keyframe = estimate.is_keyframe;
+  ack.lost = estimate.lost;
   ack.durable_seq = durable_seq();
   sink_->OnAck(ack);
   frame_ms_.Add(MsSince(t0));
@@ -291,6 +292,7 @@ Status IngestSession::SubmitFrame(const DecodedFrame& frame, const IngestFrame& 
   pose.stamp_ns = frame.stamp_ns;
   pose.T_world_camera = estimate.T_world_camera;
   pose.is_keyframe = estimate.is_keyframe;
+  pose.lost = estimate.lost;
   batch.frames.emplace_back(session_->id, pose);
 
   if (estimate.is_keyframe) {

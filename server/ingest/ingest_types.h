@@ -51,6 +51,7 @@ struct FrameAckInfo {
   uint64_t seq = 0;
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
   bool is_keyframe = false;
+  bool lost = false;
   std::optional<uint64_t> durable_seq;
 };
 

@@ -90,6 +90,7 @@ void ToProto(const FrameAckInfo& ack, v1::FrameAck* out) {
   out->set_seq(ack.seq);
   ToProto(ack.T_world_camera, out->mutable_t_world_camera());
   out->set_is_keyframe(ack.is_keyframe);
+  out->set_lost(ack.lost);
   if (ack.durable_seq) out->set_durable_seq(*ack.durable_seq);
 }
 

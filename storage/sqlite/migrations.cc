@@ -85,8 +85,10 @@ CREATE TABLE blobs (
 )sql";
 
 // Version 2: local features of keyframes (relocalisation, loop closure), checksummed like map
-// blobs; one row per keyframe that has them.
+// blobs, one row per keyframe that has them; frames flagged where visual tracking was lost.
 constexpr char kSchemaV2[] = R"sql(
+ALTER TABLE frames ADD COLUMN lost INTEGER NOT NULL DEFAULT 0 CHECK (lost IN (0, 1));
+
 CREATE TABLE keyframe_features (
   keyframe_id INTEGER PRIMARY KEY REFERENCES keyframes(id) ON DELETE CASCADE,
   format TEXT NOT NULL,

@@ -15,9 +15,9 @@ StatusOr<std::vector<TrajectoryPose>> SqliteMapStore::GetTrajectory(int64_t sess
   SEMMAP_ASSIGN_OR_RETURN(
       StatementLease stmt,
       db_->Prepare(keyframes_only
-                       ? "SELECT seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw, is_keyframe"
+                       ? "SELECT seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw, is_keyframe, lost"
                          " FROM frames WHERE session_id = ?1 AND is_keyframe = 1 ORDER BY seq"
-                       : "SELECT seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw, is_keyframe"
+                       : "SELECT seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw, is_keyframe, lost"
                          " FROM frames WHERE session_id = ?1 ORDER BY seq"));
   SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, session_id));
   std::vector<TrajectoryPose> poses;
@@ -29,6 +29,7 @@ StatusOr<std::vector<TrajectoryPose>> SqliteMapStore::GetTrajectory(int64_t sess
     p.stamp_ns = stmt->ColumnInt64(1);
     p.T_world_camera = sqlite::ReadPose(*stmt, 2);
     p.is_keyframe = stmt->ColumnInt64(9) != 0;
+    p.lost = stmt->ColumnInt64(10) != 0;
   }
   return poses;
 }

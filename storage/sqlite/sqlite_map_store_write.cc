@@ -61,14 +61,15 @@ Status SqliteMapStore::WriteFrame(int64_t session_id, const TrajectoryPose& pose
   SEMMAP_ASSIGN_OR_RETURN(
       StatementLease stmt,
       db_->Prepare("INSERT INTO frames (session_id, seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw,"
-                   " is_keyframe) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)"
+                   " is_keyframe, lost) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)"
                    " ON CONFLICT (session_id, seq) DO UPDATE SET stamp_ns = excluded.stamp_ns,"
                    " tx = excluded.tx, ty = excluded.ty, tz = excluded.tz, qx = excluded.qx,"
                    " qy = excluded.qy, qz = excluded.qz, qw = excluded.qw,"
-                   " is_keyframe = excluded.is_keyframe"));
+                   " is_keyframe = excluded.is_keyframe, lost = excluded.lost"));
   SEMMAP_RETURN_IF_ERROR(stmt->BindAll(session_id, pose.seq, pose.stamp_ns));
   SEMMAP_RETURN_IF_ERROR(sqlite::BindPose(*stmt, 4, pose.T_world_camera));
   SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(11, pose.is_keyframe ? 1 : 0));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(12, pose.lost ? 1 : 0));
   return stmt->Run();
 }
 

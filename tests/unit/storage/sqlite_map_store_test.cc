@@ -561,6 +561,19 @@ TEST_F(SqliteMapStoreTest, PoseUpdatesMoveFramesAndKeyframesInTheBatch) {
   ExpectPoseNear((*trajectory)[1].T_world_camera, PoseAt(5.0, 0.3));
 }
 
+TEST_F(SqliteMapStoreTest, LostFramesAreFlagged) {
+  const SessionInfo s = Session("m", "s");
+  WriteBatch batch;
+  TrajectoryPose lost = FramePose(1);
+  lost.lost = true;
+  batch.frames = {{s.id, FramePose(0)}, {s.id, lost}};
+  Write(batch);
+  auto trajectory = store_->GetTrajectory(s.id, false);
+  ASSERT_OK(trajectory.status());
+  EXPECT_FALSE((*trajectory)[0].lost);
+  EXPECT_TRUE((*trajectory)[1].lost);
+}
+
 TEST_F(SqliteMapStoreTest, PoseUpdateOfAMissingFrameFailsTheBatch) {
   const SessionInfo s = Session("m", "s");
   WriteBatch batch;
@@ -754,7 +767,7 @@ TEST_F(SqliteMapStoreTest, ReaderSeesCommittedDataWhileTheWriterWorks) {
     auto txn = sqlite::Transaction::Begin(store_->connection());
     ASSERT_OK(txn.status());
     ASSERT_OK(store_->connection().Exec("INSERT INTO frames VALUES (" + std::to_string(s.id) +
-                                        ", 1, 0, 0, 0, 0, 0, 0, 0, 1, 0)"));
+                                        ", 1, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0)"));
     auto during = (*reader)->GetTrajectory(s.id, false);
     ASSERT_OK(during.status());     // not blocked by the writer
     EXPECT_EQ(during->size(), 1u);  // and only committed rows
@@ -773,8 +786,8 @@ TEST_F(SqliteMapStoreTest, IntegrityCheckReportsDanglingReferences) {
   Session("m", "s");
   EXPECT_OK(store_->IntegrityCheck());
   ASSERT_OK(store_->connection().Exec("PRAGMA foreign_keys = OFF"));
-  ASSERT_OK(
-      store_->connection().Exec("INSERT INTO frames VALUES (4242, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0)"));
+  ASSERT_OK(store_->connection().Exec(
+      "INSERT INTO frames VALUES (4242, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0)"));
   ASSERT_OK(store_->connection().Exec("PRAGMA foreign_keys = ON"));
   Status status = store_->IntegrityCheck();
   EXPECT_EQ(status.code(), StatusCode::kDataLoss);
