@@ -432,8 +432,8 @@ void IngestSession::Finish(Status status) {
     std::fprintf(stderr,
                  "semmapd: session '%s' of map '%s' ended: %llu lost frames, %llu restarts; map "
                  "back end: %llu keyframes (%llu restored), %llu loop candidates, %llu accepted, "
-                 "%llu rejected by geometry, %llu by xi, %llu optimisations, queue high water "
-                 "%zu\n",
+                 "%llu rejected by geometry, %llu by xi, %llu taken back by the graph, %llu "
+                 "optimisations, queue high water %zu\n",
                  session_->name.c_str(), session_->map_name.c_str(),
                  static_cast<unsigned long long>(lost_frames_),
                  static_cast<unsigned long long>(segments_),
@@ -443,6 +443,7 @@ void IngestSession::Finish(Status status) {
                  static_cast<unsigned long long>(stats.loops_accepted),
                  static_cast<unsigned long long>(stats.rejected_geometry),
                  static_cast<unsigned long long>(stats.rejected_xi),
+                 static_cast<unsigned long long>(stats.rejected_inconsistent),
                  static_cast<unsigned long long>(stats.optimisations), stats.queue_high_water);
   }
   // Whatever was submitted is committed (or failed) before the client hears the final status,

@@ -25,10 +25,24 @@ int KeyframeGraph::Root(int index) const {
   return static_cast<int>(i);
 }
 
+void KeyframeGraph::Union(int a, int b) {
+  a = Root(a);
+  b = Root(b);
+  // The smaller index becomes the root: each component's root is its oldest keyframe.
+  if (a != b) parent_[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
+}
+
 void KeyframeGraph::AddEdge(const GraphEdge& edge) {
   edges_.push_back(edge);
-  const int a = Root(edge.from), b = Root(edge.to);
-  if (a != b) parent_[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
+  Union(edge.from, edge.to);
+}
+
+void KeyframeGraph::RemoveLastEdge() {
+  if (edges_.empty()) return;
+  edges_.pop_back();
+  // Union-find cannot split: rebuild it from the remaining edges (rare, linear).
+  for (int i = 0; i < size(); ++i) parent_[static_cast<size_t>(i)] = i;
+  for (const GraphEdge& e : edges_) Union(e.from, e.to);
 }
 
 std::optional<int> KeyframeGraph::Find(int64_t session_id, int64_t seq) const {

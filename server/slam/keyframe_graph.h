@@ -41,6 +41,11 @@ class KeyframeGraph {
   // Appends a keyframe (the next of its session) and returns its node index.
   int Add(GraphKeyframe keyframe);
   void AddEdge(const GraphEdge& edge);
+  // Takes back the latest edge (a loop the optimisation showed to be inconsistent).
+  void RemoveLastEdge();
+  void SetPose(int index, const Eigen::Isometry3d& T_world_keyframe) {
+    nodes_[static_cast<size_t>(index)].T_world_keyframe = T_world_keyframe;
+  }
 
   int size() const { return static_cast<int>(nodes_.size()); }
   const GraphKeyframe& node(int index) const { return nodes_[static_cast<size_t>(index)]; }
@@ -65,6 +70,7 @@ class KeyframeGraph {
 
  private:
   int Root(int index) const;
+  void Union(int a, int b);
 
   std::vector<GraphKeyframe> nodes_;
   std::vector<GraphEdge> edges_;

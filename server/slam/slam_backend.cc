@@ -47,6 +47,7 @@ Status SlamBackendOptions::Validate() const {
   if (!(edge_sigma_floor_m >= 0) || !(edge_sigma_floor_rad >= 0)) {
     return InvalidArgumentError("slam edge sigma floors must be >= 0");
   }
+  if (!(max_loop_chi2 >= 0)) return InvalidArgumentError("slam max_loop_chi2 must be >= 0");
   if (max_deferred_loops < 1) return InvalidArgumentError("slam max_deferred_loops must be >= 1");
   if (!(consistent_loop_chi2 >= 0)) {
     return InvalidArgumentError("slam consistent_loop_chi2 must be >= 0");
@@ -271,16 +272,18 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   }
 
   const std::optional<LoopClosureInfo> loop = CloseLoop(index);
+  std::optional<LoopClosureInfo> kept = loop;
   if (loop) {
-    if (!LoopAgreesWithGraph(graph_.edges().back()) ||
-        ++deferred_loops_ >= options_.max_deferred_loops) {
+    if (!LoopAgreesWithGraph(graph_.edges().back())) {
+      if (!OptimiseAndCorrect(/*check_new_loop=*/true)) kept.reset();
+    } else if (++deferred_loops_ >= options_.max_deferred_loops) {
       OptimiseAndCorrect();
     }
   }
   Flush();
   std::lock_guard lock(mutex_);
   ++stats_.keyframes;
-  if (loop) stats_.loops.push_back(*loop);
+  if (kept) stats_.loops.push_back(*kept);
   keyframe_ms_.Add(MsSince(t0));
 }
 
@@ -390,30 +393,45 @@ Eigen::Matrix<double, 6, 6> SlamBackend::WithNoiseFloor(
   return 0.5 * (floored + floored.transpose());  // symmetric up to rounding
 }
 
+double SlamBackend::EdgeChi2(const GraphEdge& e) const {
+  PoseGraphEdge edge;
+  edge.from = e.from;
+  edge.to = e.to;
+  edge.T_from_to = e.T_from_to;
+  edge.information = e.information;
+  return PoseGraphEdgeResidual(edge, graph_.node(e.from).T_world_keyframe,
+                               graph_.node(e.to).T_world_keyframe)
+      .squaredNorm();
+}
+
 bool SlamBackend::LoopAgreesWithGraph(const GraphEdge& loop) {
   if (options_.consistent_loop_chi2 <= 0) return false;
-  PoseGraphEdge edge;
-  edge.from = loop.from;
-  edge.to = loop.to;
-  edge.T_from_to = loop.T_from_to;
-  edge.information = loop.information;
-  const double chi2 = PoseGraphEdgeResidual(edge, graph_.node(loop.from).T_world_keyframe,
-                                            graph_.node(loop.to).T_world_keyframe)
-                          .squaredNorm();
-  if (chi2 > options_.consistent_loop_chi2) return false;
+  if (EdgeChi2(loop) > options_.consistent_loop_chi2) return false;
   std::lock_guard lock(mutex_);
   ++stats_.loops_already_consistent;
   return true;
 }
 
-void SlamBackend::OptimiseAndCorrect() {
+bool SlamBackend::OptimiseAndCorrect(bool check_new_loop) {
   const Clock::time_point t0 = Clock::now();
   std::vector<Eigen::Isometry3d> before(static_cast<size_t>(graph_.size()));
   for (int i = 0; i < graph_.size(); ++i)
     before[static_cast<size_t>(i)] = graph_.node(i).T_world_keyframe;
   deferred_loops_ = 0;
   StatusOr<PoseGraphResult> result = graph_.Optimise(options_.pose_graph);
-  if (!result.ok()) return;  // the graph keeps its poses; the loop edge stays for next time
+  if (!result.ok()) return true;  // the graph keeps its poses; the loop edge stays for next time
+  if (check_new_loop) {
+    const double chi2 = EdgeChi2(graph_.edges().back());
+    if (options_.max_loop_chi2 > 0 && chi2 > options_.max_loop_chi2) {
+      for (int i = 0; i < graph_.size(); ++i) graph_.SetPose(i, before[static_cast<size_t>(i)]);
+      graph_.RemoveLastEdge();
+      pending_.links.pop_back();
+      std::lock_guard lock(mutex_);
+      --stats_.loops_accepted;
+      ++stats_.rejected_inconsistent;
+      return false;
+    }
+  }
   // Every keyframe and frame that moved is rewritten.
   for (const auto& [session_id, anchors] : anchors_) {
     for (const FrameAnchor& a : anchors) {
@@ -436,6 +454,7 @@ void SlamBackend::OptimiseAndCorrect() {
   }
   ++stats_.optimisations;
   optimise_ms_.Add(MsSince(t0));
+  return true;
 }
 
 void SlamBackend::Flush() {

@@ -121,7 +121,7 @@ class SlamBackendTest : public ::testing::Test {
       event.features = kfs[i].features;
       if (i > 0) event.previous_seq = kfs[i - 1].seq;
       event.T_previous_keyframe = step;
-      event.information = Eigen::Matrix<double, 6, 6>::Identity() * 1e4;
+      event.information = Eigen::Matrix<double, 6, 6>::Identity() * odometry_information_;
       EXPECT_TRUE(backend.AddKeyframe(event).ok());
       EXPECT_TRUE(
           backend.AddFrame({session_.id, kfs[i].seq, kfs[i].seq, Eigen::Isometry3d::Identity(), T})
@@ -159,6 +159,7 @@ class SlamBackendTest : public ::testing::Test {
   std::unique_ptr<SqliteMapStore> reader_;
   std::unique_ptr<StorageWriter> writer_;
   SessionInfo session_;
+  double odometry_information_ = 1e4;  // 1 cm, 0.01 rad
   int corrections_ = 0;
   Eigen::Isometry3d last_correction_ = Eigen::Isometry3d::Identity();
 };
@@ -263,6 +264,32 @@ TEST_F(SlamBackendTest, SessionAfterRestartJoinsTheStoredMap) {
   }
   std::printf("second session joined the stored map: max position error %.4f m\n", worst);
   EXPECT_LT(worst, 0.02);
+}
+
+// The same drifting lap, but the odometry claims to be exact (and no noise floor relaxes it):
+// the verified loop cannot be reconciled with it, so it is taken back: no link, no moved pose.
+TEST_F(SlamBackendTest, LoopContradictedByTheOptimisedGraphIsTakenBack) {
+  const std::vector<Keyframe> kfs = RenderKeyframes(kLapFrames + 1);
+  SlamBackendOptions options;
+  options.local_radius_m = 1.0;
+  options.edge_sigma_floor_m = 0;
+  options.edge_sigma_floor_rad = 0;
+  odometry_information_ = 1e12;  // 1 micrometre
+  std::unique_ptr<SlamBackend> backend = Start(options);
+  const std::vector<Eigen::Isometry3d> reported = Stream(*backend, kfs);
+  ASSERT_TRUE(backend->Drain().ok());
+  const SlamBackendStats stats = backend->stats();
+  EXPECT_GE(stats.rejected_inconsistent, 1u);
+  EXPECT_EQ(stats.loops_accepted, 0u);
+  EXPECT_TRUE(stats.loops.empty());
+  auto links = reader_->ListLinks(session_.map_id);
+  ASSERT_TRUE(links.ok());
+  for (const LinkRecord& l : *links) EXPECT_EQ(l.kind, LinkKind::kOdometry);
+  auto stored = reader_->ListKeyframes(session_.id, false);
+  ASSERT_TRUE(stored.ok());
+  for (size_t i = 0; i < kfs.size(); ++i) {
+    EXPECT_TRUE((*stored)[i].T_world_camera.isApprox(reported[i], 1e-9)) << "keyframe " << i;
+  }
 }
 
 TEST_F(SlamBackendTest, PathThatNeverRevisitsHasNoLoop) {
