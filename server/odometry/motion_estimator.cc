@@ -7,6 +7,8 @@
 #include <opencv2/core/eigen.hpp>
 #include <string>
 
+#include "server/odometry/pose_lm.h"
+
 namespace semmap {
 namespace {
 
@@ -56,15 +58,6 @@ double Linearise(const std::vector<Eigen::Vector3d>& X, const std::vector<cv::Po
     g->noalias() += w * J.transpose() * r;
   }
   return cost;
-}
-
-Eigen::Isometry3d Exp(const Vector6d& delta) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  const Eigen::Vector3d w = delta.tail<3>();
-  const double angle = w.norm();
-  if (angle > 1e-12) T.linear() = Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
-  T.translation() = delta.head<3>();
-  return T;
 }
 
 std::vector<int> Inliers(const std::vector<Eigen::Vector3d>& X, const std::vector<cv::Point2f>& u,
@@ -125,31 +118,10 @@ Eigen::Isometry3d RefinePose(const std::vector<Eigen::Vector3d>& X,
   Eigen::Isometry3d T = T_current_reference;
   Matrix6d H;
   Vector6d g;
-  double cost = Linearise(X, u, c, options.huber_px, T, &H, &g);
-  double lambda = 1e-4;  // Levenberg damping, relative to the diagonal
-  for (int it = 0; it < options.refine_iterations; ++it) {
-    Matrix6d A = H;
-    A.diagonal() *= 1.0 + lambda;
-    const Vector6d delta = A.ldlt().solve(-g);
-    if (!delta.allFinite()) break;
-    const Eigen::Isometry3d T_new = Exp(delta) * T;
-    Matrix6d H_new;
-    Vector6d g_new;
-    const double cost_new = Linearise(X, u, c, options.huber_px, T_new, &H_new, &g_new);
-    if (cost_new <= cost && IsFinite(T_new)) {
-      T = T_new;
-      H = H_new;
-      g = g_new;
-      const bool converged = delta.norm() < 1e-9 || cost - cost_new < 1e-10 * (cost + 1e-12);
-      cost = cost_new;
-      lambda = std::max(1e-8, lambda * 0.1);
-      if (converged) break;
-    } else {
-      lambda *= 10;
-      if (lambda > 1e4) break;
-    }
-  }
-  T.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();
+  RefineSe3(&T, options.refine_iterations, &H, &g,
+            [&](const Eigen::Isometry3d& T_at, Matrix6d* H_at, Vector6d* g_at) {
+              return Linearise(X, u, c, options.huber_px, T_at, H_at, g_at);
+            });
   if (information) *information = H / (options.pixel_sigma * options.pixel_sigma);
   return T;
 }

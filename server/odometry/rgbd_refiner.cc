@@ -3,20 +3,13 @@
 #include <Eigen/Cholesky>
 #include <cmath>
 
+#include "server/odometry/pose_lm.h"
+
 namespace semmap {
 namespace {
 
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
-
-Eigen::Isometry3d Exp(const Vector6d& delta) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  const Eigen::Vector3d w = delta.tail<3>();
-  const double angle = w.norm();
-  if (angle > 1e-12) T.linear() = Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
-  T.translation() = delta.head<3>();
-  return T;
-}
 
 // Whitened residual (2 or 3 rows) and its Jacobian under exp(delta) * T; false when the
 // point is not in front of the camera.
@@ -95,31 +88,10 @@ RgbdRefinement RefinePoseRgbd(const std::vector<RgbdObservation>& obs, const Cam
   Matrix6d H;
   Vector6d g;
   for (int round = 0; round < o.rounds; ++round) {
-    double cost = Linearise(obs, active, c, o, T, &H, &g);
-    double lambda = 1e-4;
-    for (int it = 0; it < o.iterations; ++it) {
-      Matrix6d A = H;
-      A.diagonal() *= 1.0 + lambda;
-      const Vector6d delta = A.ldlt().solve(-g);
-      if (!delta.allFinite()) break;
-      const Eigen::Isometry3d T_new = Exp(delta) * T;
-      Matrix6d H_new;
-      Vector6d g_new;
-      const double cost_new = Linearise(obs, active, c, o, T_new, &H_new, &g_new);
-      if (cost_new <= cost && T_new.matrix().allFinite()) {
-        T = T_new;
-        H = H_new;
-        g = g_new;
-        const bool converged = delta.norm() < 1e-9 || cost - cost_new < 1e-10 * (cost + 1e-12);
-        cost = cost_new;
-        lambda = std::max(1e-8, lambda * 0.1);
-        if (converged) break;
-      } else {
-        lambda *= 10;
-        if (lambda > 1e4) break;
-      }
-    }
-    T.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();
+    RefineSe3(&T, o.iterations, &H, &g,
+              [&](const Eigen::Isometry3d& T_at, Matrix6d* H_at, Vector6d* g_at) {
+                return Linearise(obs, active, c, o, T_at, H_at, g_at);
+              });
     // Reclassify every observation (outliers may come back) at the refined pose.
     Eigen::Vector3d r;
     Eigen::Matrix<double, 3, 6> J;
