@@ -16,10 +16,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
 // The information of a visual estimate, or a weak one (unit, i.e. about one pixel's worth
 // per unit of motion) when the mode measures none, so the pose graph stays well posed.
 Eigen::Matrix<double, 6, 6> OdometryInformation(const FrameEstimate& estimate) {
@@ -101,7 +97,7 @@ void IngestSession::RunDecoder() {
       if (size && frame->colour && frame->payload_bytes <= options_.max_frame_bytes) {
         const Clock::time_point t0 = Clock::now();
         staged.images = DecodeImages(*frame, size->first, size->second);
-        staged.decode_ms = MsSince(t0);
+        staged.decode_ms = MillisecondsSince(t0);
       }
     }
     staged.message = std::move(*message);
@@ -256,7 +252,7 @@ Status IngestSession::HandleFrame(IngestFrame& frame,
   ApplyPendingCorrection();
   const Clock::time_point t1 = Clock::now();
   SEMMAP_ASSIGN_OR_RETURN(FrameEstimate estimate, processor_->Process(decoded));
-  tracking_ms_.Add(MsSince(t1));
+  tracking_ms_.Add(MillisecondsSince(t1));
   last_seq_ = frame.seq;
   if (estimate.new_segment) {
     last_keyframe_seq_.reset();  // no odometry link across the break
@@ -280,7 +276,7 @@ Status IngestSession::HandleFrame(IngestFrame& frame,
   ack.lost = estimate.lost;
   ack.durable_seq = durable_seq();
   sink_->OnAck(ack);
-  frame_ms_.Add(MsSince(t0));
+  frame_ms_.Add(MillisecondsSince(t0));
   return OkStatus();
 }
 
@@ -327,7 +323,7 @@ Status IngestSession::SubmitFrame(const DecodedFrame& frame, const IngestFrame& 
     }
     last_keyframe_seq_ = frame.seq;
     last_keyframe_pose_ = estimate.T_world_camera;
-    keyframe_ms_.Add(MsSince(t0));
+    keyframe_ms_.Add(MillisecondsSince(t0));
   }
 
   {
@@ -354,7 +350,7 @@ void IngestSession::OnCommitted(const Status& status, uint64_t seq,
   IngestProgressInfo progress;
   {
     std::lock_guard lock(commit_mutex_);
-    storage_commit_ms_.Add(MsSince(submitted_at));
+    storage_commit_ms_.Add(MillisecondsSince(submitted_at));
     --pending_writes_;
     if (status.ok()) {
       if (!durable_seq_ || seq > *durable_seq_) durable_seq_ = seq;

@@ -6,14 +6,12 @@
 #include <string>
 #include <utility>
 
+#include "common/time_util.h"
+
 namespace semmap {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double MsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 }  // namespace
 
@@ -158,7 +156,7 @@ StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
   SEMMAP_ASSIGN_OR_RETURN(std::vector<cv::DMatch> matches,
                           MatchGuided(map_.descriptors(), predicted, current.descriptors,
                                       current.keypoints, options_.matcher));
-  *match_ms += MsSince(start);
+  *match_ms += MillisecondsSince(start);
   sol.num_matches = static_cast<int>(matches.size());
   if (sol.num_matches < options_.motion.min_matches) return std::optional<Solution>();
 
@@ -172,7 +170,7 @@ StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
   StatusOr<MotionEstimate> initial =
       EstimateMotion(points, pixels, options_.camera, options_.motion, T_world_guess);
   if (!initial.ok()) {
-    *pose_ms += MsSince(start);
+    *pose_ms += MillisecondsSince(start);
     if (initial.status().code() == StatusCode::kFailedPrecondition) {
       return std::optional<Solution>();
     }
@@ -180,7 +178,7 @@ StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
   }
   RgbdRefinement refined = RefinePoseRgbd(Observations(matches), options_.camera, options_.refiner,
                                           initial->T_reference_current.inverse());
-  *pose_ms += MsSince(start);
+  *pose_ms += MillisecondsSince(start);
 
   if (options_.map_refine_radius_px > 0 && refined.num_inliers >= options_.motion.min_inliers) {
     std::vector<int> visible;
@@ -191,11 +189,11 @@ StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
     SEMMAP_ASSIGN_OR_RETURN(
         std::vector<cv::DMatch> more,
         MatchGuided(map_.descriptors(), predicted, current.descriptors, current.keypoints, tight));
-    *match_ms += MsSince(start);
+    *match_ms += MillisecondsSince(start);
     start = Clock::now();
     RgbdRefinement second = RefinePoseRgbd(Observations(more), options_.camera, options_.refiner,
                                            refined.T_current_reference);
-    *pose_ms += MsSince(start);
+    *pose_ms += MillisecondsSince(start);
     if (second.num_inliers >= refined.num_inliers) {
       refined = std::move(second);
       matches = std::move(more);
@@ -238,7 +236,7 @@ StatusOr<RgbdTracker::Attempt> RgbdTracker::Estimate(
   const Clock::time_point start = Clock::now();
   StatusOr<MotionEstimate> estimate =
       EstimateMotion(points, pixels, options_.camera, options_.motion, guess);
-  attempt.pose_ms = MsSince(start);
+  attempt.pose_ms = MillisecondsSince(start);
   if (estimate.ok()) {
     attempt.estimate = std::move(estimate).value();
   } else if (estimate.status().code() != StatusCode::kFailedPrecondition) {
@@ -265,7 +263,7 @@ StatusOr<RgbdTracker::Attempt> RgbdTracker::TrackGuided(
   SEMMAP_ASSIGN_OR_RETURN(std::vector<cv::DMatch> matches,
                           MatchGuided(kf.depth_descriptors, predicted, current.descriptors,
                                       current.keypoints, options_.matcher));
-  const double match_ms = MsSince(start);
+  const double match_ms = MillisecondsSince(start);
   SEMMAP_ASSIGN_OR_RETURN(Attempt attempt, Estimate(kf, current, matches, T_ref_cur_predicted));
   attempt.match_ms = match_ms;
   return attempt;
@@ -278,7 +276,7 @@ StatusOr<RgbdTracker::Attempt> RgbdTracker::TrackFull(
   SEMMAP_ASSIGN_OR_RETURN(
       std::vector<cv::DMatch> matches,
       MatchDescriptors(kf.depth_descriptors, current.descriptors, options_.matcher));
-  const double match_ms = MsSince(start);
+  const double match_ms = MillisecondsSince(start);
   SEMMAP_ASSIGN_OR_RETURN(Attempt attempt, Estimate(kf, current, matches, guess));
   attempt.match_ms = match_ms;
   return attempt;
@@ -297,7 +295,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
   TrackingResult result;
   SEMMAP_ASSIGN_OR_RETURN(FrameFeatures current,
                           extractor_.Extract(image, depth.raw, depth.depth_scale));
-  result.timings.extract_ms = MsSince(start);
+  result.timings.extract_ms = MillisecondsSince(start);
   last_stamp_ns_ = stamp_ns;
 
   const bool has_depth = !depth.raw.empty();
@@ -305,14 +303,14 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
     // Nothing to track against, and no 3D points to start a map from.
     result.state = TrackingState::kLost;
     result.T_world_camera = options_.T_world_first;
-    result.timings.total_ms = MsSince(start);
+    result.timings.total_ms = MillisecondsSince(start);
     return result;
   }
   if (keyframes_.empty()) {
     result.keyframe_features = StartSegment(std::move(current), options_.T_world_first);
     result.T_world_camera = options_.T_world_first;
     result.is_keyframe = true;
-    result.timings.total_ms = MsSince(start);
+    result.timings.total_ms = MillisecondsSince(start);
     return result;
   }
 
@@ -406,7 +404,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
     }
     result.timings.match_ms = match_ms;
     result.timings.pose_ms = pose_ms;
-    result.timings.total_ms = MsSince(start);
+    result.timings.total_ms = MillisecondsSince(start);
     return result;
   }
   const Eigen::Isometry3d T_world_current = best->T_world_current;
@@ -450,7 +448,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
   T_world_last_ = T_world_current;
   result.timings.match_ms = match_ms;
   result.timings.pose_ms = pose_ms;
-  result.timings.total_ms = MsSince(start);
+  result.timings.total_ms = MillisecondsSince(start);
   return result;
 }
 

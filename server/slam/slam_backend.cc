@@ -6,16 +6,13 @@
 #include <string>
 #include <utility>
 
+#include "common/time_util.h"
 #include "server/slam/feature_codec.h"
 
 namespace semmap {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 constexpr double kPi = 3.14159265358979323846;
 
@@ -284,7 +281,7 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   std::lock_guard lock(mutex_);
   ++stats_.keyframes;
   if (kept) stats_.loops.push_back(*kept);
-  keyframe_ms_.Add(MsSince(t0));
+  keyframe_ms_.Add(MillisecondsSince(t0));
 }
 
 std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query) {
@@ -453,7 +450,7 @@ bool SlamBackend::OptimiseAndCorrect(bool check_new_loop) {
                         before[static_cast<size_t>(*last)].inverse());
   }
   ++stats_.optimisations;
-  optimise_ms_.Add(MsSince(t0));
+  optimise_ms_.Add(MillisecondsSince(t0));
   return true;
 }
 
