@@ -154,7 +154,6 @@ int SlamBackend::AddNode(GraphKeyframe keyframe) {
 SlamBackend::~SlamBackend() { Stop(); }
 
 void SlamBackend::Stop() {
-  stopped_.store(true);
   queue_.Shutdown();  // the worker drains what is queued first
   if (worker_.joinable()) worker_.join();
 }
@@ -218,22 +217,16 @@ void SlamBackend::Run() {
   writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
 }
 
-Eigen::Isometry3d SlamBackend::FramePose(int64_t session_id, int64_t anchor_seq,
-                                         const Eigen::Isometry3d& T_anchor_frame) const {
-  const std::optional<int> anchor = graph_.Find(session_id, anchor_seq);
-  // Unknown anchors cannot happen for events in order; keep the relative pose as is then.
-  if (!anchor) return T_anchor_frame;
-  return graph_.node(*anchor).T_world_keyframe * T_anchor_frame;
-}
-
 void SlamBackend::HandleFrame(const FrameAnchorEvent& event) {
   anchors_[event.session_id].push_back({event.seq, event.anchor_seq, event.T_anchor_frame});
-  if (!graph_.Find(event.session_id, event.anchor_seq)) return;
+  const std::optional<int> anchor = graph_.Find(event.session_id, event.anchor_seq);
+  if (!anchor) return;  // its keyframe never reached the graph (unregistered session)
   // A frame tracked before its session applied the latest correction was stored in the old
   // frame: move it now.
-  const Eigen::Isometry3d T = FramePose(event.session_id, event.anchor_seq, event.T_anchor_frame);
-  if (Moved(T, event.T_world_frame))
+  const Eigen::Isometry3d T = graph_.node(*anchor).T_world_keyframe * event.T_anchor_frame;
+  if (Moved(T, event.T_world_frame)) {
     pending_.pose_updates.push_back({event.session_id, event.seq, T});
+  }
 }
 
 void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
@@ -268,11 +261,10 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
     graph_.AddEdge(edge);
   }
 
-  const std::optional<LoopClosureInfo> loop = CloseLoop(index);
-  std::optional<LoopClosureInfo> kept = loop;
+  std::optional<LoopClosureInfo> loop = CloseLoop(index);
   if (loop) {
     if (!LoopAgreesWithGraph(graph_.edges().back())) {
-      if (!OptimiseAndCorrect(/*check_new_loop=*/true)) kept.reset();
+      if (!OptimiseAndCorrect(/*check_new_loop=*/true)) loop.reset();  // taken back
     } else if (++deferred_loops_ >= options_.max_deferred_loops) {
       OptimiseAndCorrect();
     }
@@ -280,7 +272,7 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   Flush();
   std::lock_guard lock(mutex_);
   ++stats_.keyframes;
-  if (kept) stats_.loops.push_back(*kept);
+  if (loop) stats_.loops.push_back(*loop);
   keyframe_ms_.Add(MillisecondsSince(t0));
 }
 

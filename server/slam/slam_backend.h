@@ -8,7 +8,6 @@
 #pragma once
 
 #include <Eigen/Geometry>
-#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -203,8 +202,6 @@ class SlamBackend {
   bool OptimiseAndCorrect(bool check_new_loop = false);
   double EdgeChi2(const GraphEdge& edge) const;
   void Flush();  // submits the pending batch
-  Eigen::Isometry3d FramePose(int64_t session_id, int64_t anchor_seq,
-                              const Eigen::Isometry3d& T_anchor_frame) const;
 
   const int64_t map_id_;
   const SlamBackendOptions options_;
@@ -230,7 +227,6 @@ class SlamBackend {
   size_t pending_writes_ = 0;
   Status write_error_;
 
-  std::atomic<bool> stopped_{false};
   std::thread worker_;
 };
 
