@@ -70,6 +70,20 @@ void AppendRaw(std::string& out, T v) {
   out.append(bytes, sizeof(T));
 }
 
+// The point's position for both formats: binary floats, or ASCII "x y z" with a trailing space.
+void AppendPosition(std::string& out, const CloudPoint& p, bool binary) {
+  if (binary) {
+    AppendRaw(out, p.x);
+    AppendRaw(out, p.y);
+    AppendRaw(out, p.z);
+    return;
+  }
+  for (float v : {p.x, p.y, p.z}) {
+    AppendFloat(out, v);
+    out += ' ';
+  }
+}
+
 uint32_t PackRgb(const CloudPoint& p) {
   return uint32_t{255} << 24 | uint32_t{p.r} << 16 | uint32_t{p.g} << 8 | uint32_t{p.b};
 }
@@ -189,20 +203,12 @@ StatusOr<std::string> PointCloudMap::ToPly(bool binary) const {
         "\nproperty float x\nproperty float y\nproperty float z\n"
         "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n";
     for (const CloudPoint& p : points_) {
+      AppendPosition(out, p, binary);
       if (binary) {
-        AppendRaw(out, p.x);
-        AppendRaw(out, p.y);
-        AppendRaw(out, p.z);
         AppendRaw(out, p.r);
         AppendRaw(out, p.g);
         AppendRaw(out, p.b);
       } else {
-        AppendFloat(out, p.x);
-        out += ' ';
-        AppendFloat(out, p.y);
-        out += ' ';
-        AppendFloat(out, p.z);
-        out += ' ';
         AppendInteger(out, unsigned{p.r});
         out += ' ';
         AppendInteger(out, unsigned{p.g});
@@ -229,18 +235,10 @@ StatusOr<std::string> PointCloudMap::ToPcd(bool binary) const {
     AppendInteger(out, points_.size());
     out += binary ? "\nDATA binary\n" : "\nDATA ascii\n";
     for (const CloudPoint& p : points_) {
+      AppendPosition(out, p, binary);
       if (binary) {
-        AppendRaw(out, p.x);
-        AppendRaw(out, p.y);
-        AppendRaw(out, p.z);
         AppendRaw(out, PackRgb(p));
       } else {
-        AppendFloat(out, p.x);
-        out += ' ';
-        AppendFloat(out, p.y);
-        out += ' ';
-        AppendFloat(out, p.z);
-        out += ' ';
         AppendInteger(out, PackRgb(p));
         out += '\n';
       }
