@@ -34,7 +34,7 @@ void KeyframeGraph::Union(int a, int b) {
 
 void KeyframeGraph::AddEdge(const GraphEdge& edge) {
   edges_.push_back(edge);
-  Union(edge.from, edge.to);
+  Union(static_cast<int>(edge.from), static_cast<int>(edge.to));
 }
 
 void KeyframeGraph::RemoveLastEdge() {
@@ -42,7 +42,7 @@ void KeyframeGraph::RemoveLastEdge() {
   edges_.pop_back();
   // Union-find cannot split: rebuild it from the remaining edges (rare, linear).
   for (int i = 0; i < size(); ++i) parent_[static_cast<size_t>(i)] = i;
-  for (const GraphEdge& e : edges_) Union(e.from, e.to);
+  for (const GraphEdge& e : edges_) Union(static_cast<int>(e.from), static_cast<int>(e.to));
 }
 
 std::optional<int> KeyframeGraph::Find(int64_t session_id, int64_t seq) const {
@@ -98,18 +98,7 @@ StatusOr<PoseGraphResult> KeyframeGraph::Optimise(const PoseGraphOptions& option
   for (int i = 0; i < size(); ++i) {
     if (Root(i) == i) nodes[static_cast<size_t>(i)].fixed = true;
   }
-  std::vector<PoseGraphEdge> edges;
-  edges.reserve(edges_.size());
-  for (const GraphEdge& e : edges_) {
-    PoseGraphEdge pe;
-    pe.from = e.from;
-    pe.to = e.to;
-    pe.T_from_to = e.T_from_to;
-    pe.information = e.information;
-    pe.kind = e.kind;
-    edges.push_back(pe);
-  }
-  SEMMAP_ASSIGN_OR_RETURN(PoseGraphResult result, OptimizePoseGraph(nodes, edges, options));
+  SEMMAP_ASSIGN_OR_RETURN(PoseGraphResult result, OptimizePoseGraph(nodes, edges_, options));
   for (const auto& [id, T] : result.T_world_node) {
     nodes_[static_cast<size_t>(id)].T_world_keyframe = T;
   }

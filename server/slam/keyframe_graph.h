@@ -29,12 +29,9 @@ struct GraphKeyframe {
   int index_in_session = 0;                   // 0, 1, 2, ... in the session's order
 };
 
-struct GraphEdge {
-  int from = 0, to = 0;  // node indices
-  Eigen::Isometry3d T_from_to = Eigen::Isometry3d::Identity();
-  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
-  PoseGraphEdgeKind kind = PoseGraphEdgeKind::kOdometry;
-};
+// An edge of the graph is a pose-graph edge whose node ids are the graph's node indices, so the
+// edges go to the optimiser as they are.
+using GraphEdge = PoseGraphEdge;
 
 class KeyframeGraph {
  public:

@@ -382,14 +382,9 @@ Eigen::Matrix<double, 6, 6> SlamBackend::WithNoiseFloor(
   return 0.5 * (floored + floored.transpose());  // symmetric up to rounding
 }
 
-double SlamBackend::EdgeChi2(const GraphEdge& e) const {
-  PoseGraphEdge edge;
-  edge.from = e.from;
-  edge.to = e.to;
-  edge.T_from_to = e.T_from_to;
-  edge.information = e.information;
-  return PoseGraphEdgeResidual(edge, graph_.node(e.from).T_world_keyframe,
-                               graph_.node(e.to).T_world_keyframe)
+double SlamBackend::EdgeChi2(const GraphEdge& edge) const {
+  return PoseGraphEdgeResidual(edge, graph_.node(static_cast<int>(edge.from)).T_world_keyframe,
+                               graph_.node(static_cast<int>(edge.to)).T_world_keyframe)
       .squaredNorm();
 }
 
