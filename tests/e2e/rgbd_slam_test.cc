@@ -13,6 +13,7 @@
 #include "client/eval/ate.h"
 #include "tests/testing/server_process.h"
 #include "tests/testing/temp_dir.h"
+#include "tests/testing/text_lines.h"
 
 namespace semmap {
 namespace {
@@ -77,16 +78,6 @@ TEST(RgbdSlamE2ETest, SyntheticLapIsTrackedAndItsLoopClosed) {
   EXPECT_EQ(server.Stop(SIGTERM), 0);
 }
 
-// Lines of a TUM list file that are not comments.
-std::vector<std::string> DataLines(const std::string& path) {
-  std::ifstream file(path);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(file, line);) {
-    if (!line.empty() && line[0] != '#') lines.push_back(line);
-  }
-  return lines;
-}
-
 // A second walk through the same room: `source`'s frames order[0], order[1], ... re-stamped
 // at 30 Hz (images symlinked), with its ground truth.
 void WriteReorderedSequence(const std::string& source, const std::string& out,
@@ -96,9 +87,9 @@ void WriteReorderedSequence(const std::string& source, const std::string& out,
   fs::create_directory_symlink(source + "/rgb", out + "/rgb");
   fs::create_directory_symlink(source + "/depth", out + "/depth");
   fs::copy_file(source + "/camera.yaml", out + "/camera.yaml");
-  const std::vector<std::string> rgb = DataLines(source + "/rgb.txt");
-  const std::vector<std::string> depth = DataLines(source + "/depth.txt");
-  const std::vector<std::string> gt = DataLines(source + "/groundtruth.txt");
+  const std::vector<std::string> rgb = testing::DataLines(source + "/rgb.txt");
+  const std::vector<std::string> depth = testing::DataLines(source + "/depth.txt");
+  const std::vector<std::string> gt = testing::DataLines(source + "/groundtruth.txt");
   std::ofstream rgb_out(out + "/rgb.txt"), depth_out(out + "/depth.txt"),
       gt_out(out + "/groundtruth.txt");
   const auto After = [](const std::string& line) { return line.substr(line.find(' ')); };

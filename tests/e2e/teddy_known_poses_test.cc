@@ -3,11 +3,11 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
-#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "tests/testing/server_process.h"
 #include "tests/testing/temp_dir.h"
+#include "tests/testing/text_lines.h"
 
 namespace semmap {
 namespace {
@@ -16,12 +16,7 @@ using testing::RunCommand;
 using testing::SemmapCliPath;
 
 // Pose lines (not comments, not blank) of a TUM trajectory file.
-int CountPoseLines(const std::string& path) {
-  std::ifstream file(path);
-  int lines = 0;
-  for (std::string line; std::getline(file, line);) lines += !line.empty() && line[0] != '#';
-  return lines;
-}
+size_t CountPoseLines(const std::string& path) { return testing::DataLines(path).size(); }
 
 TEST(TeddyE2ETest, KnownPosesSessionSurvivesRestart) {
   const std::string data = testing::SharedDataDir();
@@ -47,7 +42,7 @@ TEST(TeddyE2ETest, KnownPosesSessionSurvivesRestart) {
   EXPECT_LT(keyframes, 200);
 
   // --trajectory-out has a pose for every streamed frame.
-  EXPECT_EQ(CountPoseLines(trajectory_file), 200);
+  EXPECT_EQ(CountPoseLines(trajectory_file), 200u);
 
   EXPECT_EQ(server.Stop(SIGTERM), 0);
   ASSERT_TRUE(server.Start(dir.path()).ok());
@@ -86,7 +81,7 @@ TEST(TeddyE2ETest, KnownPosesSessionSurvivesRestart) {
             0)
       << out;
   EXPECT_EQ(nlohmann::json::parse(out)["sha256"].get<std::string>().size(), 64u);
-  EXPECT_EQ(CountPoseLines(exported), 200);
+  EXPECT_EQ(CountPoseLines(exported), 200u);
 
   out.clear();
   EXPECT_EQ(RunCommand({SemmapCliPath(), "--server", server.address(), "trajectory", "--map",
