@@ -6,14 +6,22 @@
 #include <vector>
 
 #include "common/map_types.h"
+#include "common/object_types.h"
 #include "common/status.h"
 
 namespace semmap {
 
 struct ExportRequest {
   std::string map;
-  std::string format;   // "tum" | "json"
+  // "tum" (one session's trajectory), "json" (map summary), "ot" / "bt" (OctoMap occupancy),
+  // "ply" / "pcd" (coloured point cloud), "png" (rendered picture).
+  std::string format;
   std::string session;  // optional filter
+  bool ascii = false;   // ply / pcd: ASCII instead of binary
+  // ot / bt: tree resolution, ply / pcd / png: voxel-grid leaf (metres); 0: the map's own.
+  double voxel_m = 0;
+  std::string view;  // png: "top" (default) or "oblique"
+  int width_px = 0;  // png: long side in pixels; 0: default
 };
 
 struct ExportResult {
@@ -33,6 +41,18 @@ class MapQueryInterface {
                                                               const std::string& session,
                                                               bool keyframes_only) = 0;
   virtual StatusOr<ExportResult> ExportMap(const ExportRequest& request) = 0;
+
+  // Object types visible in `map` (global ones and the map's), or all when empty; no views.
+  virtual StatusOr<std::vector<ObjectType>> ListObjectTypes(const std::string& map) = 0;
+  // Instances of `label` (every label when empty) in `map` (every map when empty).
+  virtual StatusOr<std::vector<ObjectInstance>> FindObjects(const std::string& label,
+                                                            const std::string& map) = 0;
+  // Instances within radius_m of `point` in `map` (may be empty when there is one map only),
+  // nearest first; only `label` when not empty.
+  virtual StatusOr<std::vector<ObjectInstance>> ObjectsNear(const std::string& map,
+                                                            const Eigen::Vector3d& point,
+                                                            double radius_m,
+                                                            const std::string& label) = 0;
 };
 
 }  // namespace semmap

@@ -79,6 +79,13 @@ struct PoseUpdate {
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
 };
 
+// Where the back end holds a keyframe (map frame), for layers built from keyframes.
+struct KeyframePose {
+  int64_t session_id = 0;
+  int64_t seq = 0;
+  Eigen::Isometry3d T_world_keyframe = Eigen::Isometry3d::Identity();
+};
+
 // A constraint between two keyframes of one map (odometry or loop closure).
 struct LinkRecord {
   int64_t id = 0;

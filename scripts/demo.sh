@@ -35,6 +35,10 @@ echo "== sessions"
 echo "== keyframes (where the camera was, T_world_camera, metres)"
 "$SEMMAP" trajectory --map demo --session teddy --keyframes | head -n 8
 "$SEMMAP" export --map demo --format json -o "$DATA_DIR/demo_map.json"
+echo "== the 3D map: OctoMap, coloured cloud, and a picture from above"
+"$SEMMAP" export --map demo --format bt -o "$DATA_DIR/demo_map.bt"
+"$SEMMAP" export --map demo --format ply -o "$DATA_DIR/demo_map.ply"
+"$SEMMAP" export --map demo --format png -o "${DEMO_PNG:-demo-map.png}"
 echo "== objects: recognition is not implemented yet, so no object positions to print"
 
 kill -TERM "$server_pid"

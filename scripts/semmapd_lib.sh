@@ -1,9 +1,11 @@
 # Sourced by scripts that run a throw-away semmapd (demo, benchmarks).
-# start_semmapd SEMMAPD DATA_DIR: starts it on an ephemeral loopback port and waits until it
-# prints its address; sets SEMMAPD_PID and SEMMAPD_ADDR. Logs go to DATA_DIR/semmapd.log.
+# start_semmapd SEMMAPD DATA_DIR [FLAGS...]: starts it on an ephemeral loopback port (with the
+# extra flags) and waits until it prints its address; sets SEMMAPD_PID and SEMMAPD_ADDR. Logs go
+# to DATA_DIR/semmapd.log.
 start_semmapd() {
   local bin=$1 data_dir=$2
-  "$bin" --listen 127.0.0.1:0 --data-dir "$data_dir" >"$data_dir/semmapd.out" \
+  shift 2
+  "$bin" --listen 127.0.0.1:0 --data-dir "$data_dir" "$@" >"$data_dir/semmapd.out" \
     2>"$data_dir/semmapd.log" &
   SEMMAPD_PID=$!
   SEMMAPD_ADDR=""

@@ -57,7 +57,7 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   writer_options.queue_capacity = options.storage_queue_capacity;
   SEMMAP_ASSIGN_OR_RETURN(server->writer_,
                           StorageWriter::Start(std::move(write_store), writer_options));
-  server->query_ = std::make_unique<StoreMapQuery>(std::move(read_store));
+  server->query_ = std::make_unique<StoreMapQuery>(std::move(read_store), options.ingest.layers);
   std::shared_ptr<const BowVocabulary> vocabulary;
   if (!options.vocabulary_path.empty()) {
     StatusOr<BowVocabulary> loaded = BowVocabulary::Load(options.vocabulary_path);
@@ -72,9 +72,18 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
                 << "); loop closure by pose proximity only\n";
     }
   }
-  server->ingest_ =
-      std::make_unique<IngestManager>(server->writer_.get(), options.ingest, std::move(vocabulary));
-  server->service_ = std::make_unique<MapServiceImpl>(server->ingest_.get(), server->query_.get());
+  StatusOr<std::unique_ptr<ObjectCatalog>> objects =
+      ObjectCatalog::Load(server->writer_.get(), options.recognition);
+  if (!objects.ok()) {
+    Status stopped = server->writer_->Stop();
+    (void)stopped;
+    return objects.status().WithContext("loading the object database");
+  }
+  server->objects_ = std::move(objects).value();
+  server->ingest_ = std::make_unique<IngestManager>(server->writer_.get(), options.ingest,
+                                                    std::move(vocabulary), server->objects_.get());
+  server->service_ = std::make_unique<MapServiceImpl>(server->ingest_.get(), server->query_.get(),
+                                                      server->objects_.get());
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();

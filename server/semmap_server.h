@@ -38,6 +38,7 @@ class SemmapServer {
   int lock_fd_ = -1;  // flock on the data dir: one server per directory
   std::unique_ptr<StorageWriter> writer_;
   std::unique_ptr<MapQueryInterface> query_;
+  std::unique_ptr<ObjectCatalog> objects_;
   std::unique_ptr<IngestManager> ingest_;
   std::unique_ptr<MapServiceImpl> service_;
   std::unique_ptr<grpc::Server> server_;

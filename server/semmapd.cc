@@ -50,6 +50,33 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   }
   SEMMAP_ASSIGN_OR_RETURN(options->ingest.slam.verifier.max_xi,
                           args.GetDouble("loop-max-xi", options->ingest.slam.verifier.max_xi));
+  const std::string layers = args.Get("map-layers", "on");
+  if (layers != "on" && layers != "off") {
+    return semmap::InvalidArgumentError("--map-layers must be on or off");
+  }
+  semmap::MapLayerOptions& map = options->ingest.layers;
+  map.enabled = layers == "on";
+  SEMMAP_ASSIGN_OR_RETURN(map.occupancy.resolution_m,
+                          args.GetDouble("map-resolution", map.occupancy.resolution_m));
+  SEMMAP_ASSIGN_OR_RETURN(map.occupancy.max_range_m,
+                          args.GetDouble("map-max-range", map.occupancy.max_range_m));
+  SEMMAP_ASSIGN_OR_RETURN(map.cloud.leaf_size_m,
+                          args.GetDouble("cloud-voxel", map.cloud.leaf_size_m));
+  const std::string objects = args.Get("objects", "on");
+  if (objects != "on" && objects != "off") {
+    return semmap::InvalidArgumentError("--objects must be on or off");
+  }
+  options->ingest.objects.enabled = objects == "on";
+  SEMMAP_ASSIGN_OR_RETURN(double object_xi,
+                          args.GetDouble("object-max-xi", options->recognition.max_xi));
+  if (object_xi == 0) {
+    options->ingest.objects.apply_xi = false;  // the recogniser's own threshold stays valid
+  } else {
+    options->recognition.max_xi = object_xi;
+  }
+  SEMMAP_ASSIGN_OR_RETURN(long long min_inliers,
+                          args.GetInt("object-min-inliers", options->recognition.min_inliers));
+  options->recognition.min_inliers = static_cast<int>(min_inliers);
   SEMMAP_ASSIGN_OR_RETURN(long long grace, args.GetInt("shutdown-grace-s", 5));
   options->shutdown_grace_s = static_cast<int>(grace);
   return options->Validate();
@@ -74,6 +101,18 @@ int main(int argc, char** argv) {
   args.AddFlag("loop-max-xi", "X",
                "reject a loop whose candidate matches more than X times better than its "
                "neighbouring keyframes (default 1.25)");
+  args.AddFlag("map-layers", "on|off",
+               "build the 3D layers (OctoMap occupancy, coloured cloud) from keyframes with depth "
+               "(default on)");
+  args.AddFlag("map-resolution", "M", "occupancy voxel size in metres (default 0.05)");
+  args.AddFlag("map-max-range", "M", "depth beyond this is not mapped (default 4.0)");
+  args.AddFlag("cloud-voxel", "M", "point-cloud voxel-grid leaf in metres (default 0.02)");
+  args.AddFlag("objects", "on|off", "recognise registered objects in RGBD keyframes (default on)");
+  args.AddFlag("object-max-xi", "X",
+               "object neighbour check: reject a detection whose matches exceed its best "
+               "neighbour keyframe's by more than this ratio (default 1.25; 0 disables the check)");
+  args.AddFlag("object-min-inliers", "N",
+               "geometric-verification inliers an object detection needs (default 12)");
   args.AddFlag("shutdown-grace-s", "S", "seconds streams get to finish at shutdown (default 5)");
   args.AddSwitch("help", "print this help");
 

@@ -24,6 +24,7 @@ Status ServerOptions::Validate() const {
   if (storage_queue_capacity < 1 || storage_queue_capacity > 4096) {
     return InvalidArgumentError("storage queue capacity must be in 1..4096");
   }
+  SEMMAP_RETURN_IF_ERROR(recognition.Validate().WithContext("object recognition"));
   return ingest.Validate();
 }
 
@@ -37,7 +38,14 @@ std::string ServerOptions::ToString() const {
       << " keyframe_min_motion=" << ingest.keyframes.min_motion
       << " keyframe_rotation_weight=" << ingest.keyframes.rotation_weight
       << " vocabulary=" << (vocabulary_path.empty() ? "none" : vocabulary_path)
-      << " loop_max_xi=" << ingest.slam.verifier.max_xi;
+      << " loop_max_xi=" << ingest.slam.verifier.max_xi
+      << " map_layers=" << (ingest.layers.enabled ? "on" : "off")
+      << " map_resolution=" << ingest.layers.occupancy.resolution_m
+      << " map_max_range=" << ingest.layers.occupancy.max_range_m
+      << " cloud_voxel=" << ingest.layers.cloud.leaf_size_m
+      << " objects=" << (ingest.objects.enabled ? "on" : "off")
+      << " object_max_xi=" << recognition.max_xi
+      << " object_min_inliers=" << recognition.min_inliers;
   return out.str();
 }
 

@@ -5,6 +5,7 @@
 
 #include "common/status.h"
 #include "server/ingest/ingest_options.h"
+#include "server/recognition/object_model.h"
 
 namespace semmap {
 
@@ -20,6 +21,8 @@ struct ServerOptions {
   // only). A path that cannot be loaded fails the start unless vocabulary_optional.
   std::string vocabulary_path;
   bool vocabulary_optional = false;
+  // How object photos are described and objects recognised in keyframes.
+  ObjectRecognitionOptions recognition;
 
   Status Validate() const;
   std::string ToString() const;  // one line per option, for the start-up log

@@ -1,5 +1,6 @@
 #include "storage/map_store.h"
 
+#include <algorithm>
 #include <iterator>
 
 namespace semmap {
@@ -23,6 +24,19 @@ void WriteBatch::Append(WriteBatch&& other) {
   MoveAppend(links, std::move(other.links));
   MoveAppend(blobs, std::move(other.blobs));
   MoveAppend(pose_updates, std::move(other.pose_updates));
+  MoveAppend(observations, std::move(other.observations));
+  // Each entry replaces all of its map's instances, so of two for one map only the later one
+  // matters: it takes the earlier one's place instead of being written after it.
+  for (auto& [map_id, instances] : other.instances) {
+    auto same_map = std::find_if(this->instances.begin(), this->instances.end(),
+                                 [id = map_id](const auto& entry) { return entry.first == id; });
+    if (same_map != this->instances.end()) {
+      same_map->second = std::move(instances);
+    } else {
+      this->instances.emplace_back(map_id, std::move(instances));
+    }
+  }
+  other.instances.clear();
 }
 
 }  // namespace semmap

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "common/map_types.h"
+#include "common/object_types.h"
 #include "common/status.h"
 
 namespace semmap {
@@ -22,9 +23,13 @@ struct WriteBatch {
   // Applied after frames and keyframes: moves the frame row (and the keyframe row when the
   // frame is a keyframe) of (session_id, seq). NOT_FOUND when the frame does not exist.
   std::vector<PoseUpdate> pose_updates;
+  // Applied after keyframes (an observation may name a keyframe of the same batch).
+  std::vector<ObjectObservation> observations;
+  // Each replaces every stored instance of its map (the fusion's current answer).
+  std::vector<std::pair<int64_t, std::vector<ObjectInstance>>> instances;  // (map_id, all)
   bool empty() const {
     return frames.empty() && keyframes.empty() && links.empty() && blobs.empty() &&
-           pose_updates.empty();
+           pose_updates.empty() && observations.empty() && instances.empty();
   }
   void Append(WriteBatch&& other);
 };
@@ -67,6 +72,31 @@ class MapStore {
   // Replaces keyframe poses after an optimisation (ids must exist).
   virtual Status UpdateKeyframePoses(
       const std::vector<std::pair<int64_t, Eigen::Isometry3d>>& T_world_keyframe) = 0;
+
+  // --- objects ---
+  // Stores a type with its views (ids filled in). ALREADY_EXISTS when its scope (global, or
+  // the map) already has the label; NOT_FOUND for an unknown map_id.
+  virtual StatusOr<ObjectType> CreateObjectType(const ObjectType& type) = 0;
+  // Types visible in a map (global ones and the map's own) or, with nullopt, every type;
+  // ordered by label. Views (with features) only when with_views; DATA_LOSS when stored
+  // features fail their checksum.
+  virtual StatusOr<std::vector<ObjectType>> ListObjectTypes(std::optional<int64_t> map_id,
+                                                            bool with_views) = 0;
+  // Removes the type of that label in that scope, with its views, observations and instances.
+  // NOT_FOUND when there is none.
+  virtual Status RemoveObjectType(const std::string& label, std::optional<int64_t> map_id) = 0;
+  // A map's observations in keyframe order, with keyframe_id, session_id, seq and label filled.
+  virtual StatusOr<std::vector<ObjectObservation>> ListObjectObservations(int64_t map_id) = 0;
+  // Instances of a label (every label when empty) in one map or, with nullopt, every map;
+  // ordered by map, label, then confidence (highest first).
+  virtual StatusOr<std::vector<ObjectInstance>> FindObjectInstances(std::optional<int64_t> map_id,
+                                                                    const std::string& label) = 0;
+  // Instances of a map within `radius_m` of `centre` (Euclidean, map frame), nearest first,
+  // distance_m filled; found through an R*Tree index. Only `label` when not empty.
+  virtual StatusOr<std::vector<ObjectInstance>> ObjectInstancesNear(int64_t map_id,
+                                                                    const Eigen::Vector3d& centre,
+                                                                    double radius_m,
+                                                                    const std::string& label) = 0;
 
   // --- map blobs (length + sha256 verified on read: DATA_LOSS on mismatch) ---
   virtual StatusOr<MapBlob> GetBlob(int64_t map_id, const std::string& kind) = 0;

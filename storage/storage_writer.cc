@@ -1,5 +1,6 @@
 #include "storage/storage_writer.h"
 
+#include <algorithm>
 #include <iterator>
 #include <optional>
 #include <string>
@@ -10,12 +11,20 @@ namespace {
 
 // How many rows of each kind one batch contributed to a merged batch.
 struct BatchShape {
-  size_t frames = 0, keyframes = 0, links = 0, blobs = 0, pose_updates = 0;
+  size_t frames = 0, keyframes = 0, links = 0, blobs = 0, pose_updates = 0, observations = 0;
+  std::vector<int64_t> instance_maps;  // maps whose instances the batch replaces
 };
 
 BatchShape ShapeOf(const WriteBatch& b) {
-  return {b.frames.size(), b.keyframes.size(), b.links.size(), b.blobs.size(),
-          b.pose_updates.size()};
+  BatchShape shape;
+  shape.frames = b.frames.size();
+  shape.keyframes = b.keyframes.size();
+  shape.links = b.links.size();
+  shape.blobs = b.blobs.size();
+  shape.pose_updates = b.pose_updates.size();
+  shape.observations = b.observations.size();
+  for (const auto& entry : b.instances) shape.instance_maps.push_back(entry.first);
+  return shape;
 }
 
 template <typename T>
@@ -37,6 +46,18 @@ std::vector<WriteBatch> Split(WriteBatch&& merged, const std::vector<BatchShape>
     b.links = TakeRange(merged.links, offset.links, shape.links);
     b.blobs = TakeRange(merged.blobs, offset.blobs, shape.blobs);
     b.pose_updates = TakeRange(merged.pose_updates, offset.pose_updates, shape.pose_updates);
+    b.observations = TakeRange(merged.observations, offset.observations, shape.observations);
+  }
+  // Append kept one instance list per map, the latest: it goes back to the last batch that
+  // replaced that map (the earlier batches' lists were superseded and are not retried).
+  for (auto& entry : merged.instances) {
+    for (size_t i = shapes.size(); i-- > 0;) {
+      const std::vector<int64_t>& maps = shapes[i].instance_maps;
+      if (std::find(maps.begin(), maps.end(), entry.first) != maps.end()) {
+        batches[i].instances.push_back(std::move(entry));
+        break;
+      }
+    }
   }
   return batches;
 }

@@ -132,11 +132,18 @@ int RunTrajectory(CliContext context, int argc, const char* const* argv) {
 int RunExport(CliContext context, int argc, const char* const* argv) {
   ArgParser parser;
   parser.AddFlag("map", "M", "map name (required)");
-  parser.AddFlag("format", "F", "tum (one session's trajectory) or json (map summary)");
+  parser.AddFlag("format", "F",
+                 "tum (one session's trajectory), json (map summary), ot / bt (OctoMap), ply / pcd "
+                 "(coloured point cloud), png (picture)");
   parser.AddFlag("session", "S", "only this session");
+  parser.AddSwitch("ascii", "ply / pcd: ASCII instead of binary");
+  parser.AddFlag("voxel", "M", "ot / bt: tree resolution; ply / pcd / png: voxel-grid leaf");
+  parser.AddFlag("view", "top|oblique", "png: top-down (default) or oblique view");
+  parser.AddFlag("width", "PX", "png: long side in pixels (default 1600)");
   parser.AddFlag("o", "FILE", "output file (required)");
   if (int rc = ParseSubcommand(parser, &context, argc, argv,
                                "usage: semmap export --map M --format F -o FILE [--session S]\n"
+                               "       [--ascii] [--voxel M] [--view top|oblique] [--width PX]\n"
                                "  Downloads a map product; its SHA-256 is checked.\n",
                                0, 0);
       rc >= 0) {
@@ -145,9 +152,22 @@ int RunExport(CliContext context, int argc, const char* const* argv) {
   if (!parser.Has("map") || !parser.Has("format") || !parser.Has("o")) {
     return ReportUsage("export needs --map, --format and -o", "see semmap export --help\n");
   }
+  ExportRequest request;
+  request.map = parser.Get("map");
+  request.format = parser.Get("format");
+  request.session = parser.Get("session");
+  request.ascii = parser.Has("ascii");
+  request.view = parser.Get("view");
+  StatusOr<double> voxel = parser.GetDouble("voxel", 0);
+  if (!voxel.ok()) return ReportUsage(voxel.status().message(), "see semmap export --help\n");
+  request.voxel_m = *voxel;
+  StatusOr<long long> width = parser.GetInt("width", 0);
+  if (!width.ok() || *width < 0 || *width > 100000) {
+    return ReportUsage("--width must be a pixel count", "see semmap export --help\n");
+  }
+  request.width_px = static_cast<int>(*width);
   MapClient client = MakeClient(context);
-  StatusOr<ExportResult> result =
-      client.ExportMap({parser.Get("map"), parser.Get("format"), parser.Get("session")});
+  StatusOr<ExportResult> result = client.ExportMap(request);
   if (!result.ok()) return ReportError(result.status());
   const std::string path = parser.Get("o");
   std::ofstream file(path, std::ios::binary);

@@ -12,5 +12,8 @@ int RunSessions(CliContext context, int argc, const char* const* argv);
 int RunTrajectory(CliContext context, int argc, const char* const* argv);
 int RunExport(CliContext context, int argc, const char* const* argv);
 int RunEval(CliContext context, int argc, const char* const* argv);
+int RunObjects(CliContext context, int argc, const char* const* argv);
+int RunWhere(CliContext context, int argc, const char* const* argv);
+int RunNear(CliContext context, int argc, const char* const* argv);
 
 }  // namespace semmap::cli

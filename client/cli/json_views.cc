@@ -53,4 +53,29 @@ nlohmann::json ToJson(const TrajectoryPose& p) {
           {"lost", p.lost}};
 }
 
+nlohmann::json ToJson(const ObjectType& t) {
+  return {{"label", t.label},
+          {"map", t.map_name.empty() ? nlohmann::json(nullptr) : nlohmann::json(t.map_name)},
+          {"colour", {t.rgb[0], t.rgb[1], t.rgb[2]}},
+          {"photos", t.views.size()},
+          {"created", FormatUnixTime(t.created_unix_ns)}};
+}
+
+nlohmann::json ToJson(const ObjectInstance& o, bool with_distance) {
+  const auto xyz = [](const Eigen::Vector3d& v) {
+    return nlohmann::json{{"x", v.x()}, {"y", v.y()}, {"z", v.z()}};
+  };
+  nlohmann::json out = {{"label", o.label},
+                        {"map", o.map_name},
+                        {"position", xyz(o.position)},
+                        {"extent", xyz(o.extent)},
+                        {"confidence", o.confidence},
+                        {"observations", o.observations},
+                        {"sessions", o.sessions},
+                        {"first_seen", FormatStampSeconds(o.first_seen_ns)},
+                        {"last_seen", FormatStampSeconds(o.last_seen_ns)}};
+  if (with_distance) out["distance"] = o.distance_m;
+  return out;
+}
+
 }  // namespace semmap::cli

@@ -17,7 +17,11 @@ constexpr char kUsage[] =
     "  maps                         list maps\n"
     "  sessions [--map M]           list mapping sessions\n"
     "  trajectory --map M --session S [-o FILE]   a session's poses in TUM format\n"
-    "  export --map M --format F -o FILE          download a map product (tum, json)\n"
+    "  export --map M --format F -o FILE          download a map product (tum, json, ot, bt,\n"
+    "                                             ply, pcd, png)\n"
+    "  objects add|list|remove ...  the object database (photos of objects to recognise)\n"
+    "  where LABEL [--map M]        where the objects of a label are\n"
+    "  near X Y Z RADIUS [--label L] [--map M]    objects within RADIUS metres of a point\n"
     "  eval ate|rpe|kitti GT EST [options]        trajectory error (TUM ATE/RPE, KITTI)\n"
     "\n"
     "`semmap COMMAND --help` describes a command. --json prints one JSON object to stdout.\n"
@@ -57,7 +61,8 @@ int main(int argc, char** argv) {
   static const std::map<std::string, Command> kCommands = {
       {"health", RunHealth},     {"ingest", RunIngest},         {"maps", RunMaps},
       {"sessions", RunSessions}, {"trajectory", RunTrajectory}, {"export", RunExport},
-      {"eval", RunEval},
+      {"eval", RunEval},         {"objects", RunObjects},       {"where", RunWhere},
+      {"near", RunNear},
   };
   const auto command = kCommands.find(argv[i]);
   if (command == kCommands.end()) {

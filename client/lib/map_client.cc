@@ -1,10 +1,12 @@
 #include "client/lib/map_client.h"
 
+#include <algorithm>
 #include <thread>
 
 #include "common/sha256.h"
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "rpc/conversions.h"
+#include "rpc/object_conversions.h"
 
 namespace semmap {
 
@@ -97,6 +99,10 @@ StatusOr<ExportResult> MapClient::ExportMap(const ExportRequest& request) {
   wire.set_map(request.map);
   wire.set_format(request.format);
   wire.set_session(request.session);
+  wire.set_ascii(request.ascii);
+  wire.set_voxel(request.voxel_m);
+  wire.set_view(request.view);
+  wire.set_width(static_cast<uint32_t>(std::max(request.width_px, 0)));
   auto reader = stub_->ExportMap(&context, wire);
   ExportResult result;
   Sha256Hasher hasher;
@@ -124,6 +130,79 @@ StatusOr<ExportResult> MapClient::ExportMap(const ExportRequest& request) {
         std::to_string(trailer->total_bytes()) + " bytes with sha256 " + trailer->sha256());
   }
   return result;
+}
+
+StatusOr<std::vector<ObjectType>> MapClient::ListObjectTypes(const std::string& map) {
+  grpc::ClientContext context;
+  SetDeadline(&context);
+  v1::ListObjectsRequest request;
+  request.set_map(map);
+  v1::ListObjectsResponse response;
+  SEMMAP_RETURN_IF_ERROR(FromGrpcStatus(stub_->ListObjects(&context, request, &response)));
+  std::vector<ObjectType> types;
+  for (const v1::ObjectTypeInfo& t : response.objects()) types.push_back(FromProto(t));
+  return types;
+}
+
+StatusOr<std::vector<ObjectInstance>> MapClient::FindObjects(const std::string& label,
+                                                             const std::string& map) {
+  grpc::ClientContext context;
+  SetDeadline(&context);
+  v1::FindObjectsRequest request;
+  request.set_label(label);
+  request.set_map(map);
+  v1::FindObjectsResponse response;
+  SEMMAP_RETURN_IF_ERROR(FromGrpcStatus(stub_->FindObjects(&context, request, &response)));
+  std::vector<ObjectInstance> out;
+  for (const v1::ObjectInstanceInfo& o : response.objects()) out.push_back(FromProto(o));
+  return out;
+}
+
+StatusOr<std::vector<ObjectInstance>> MapClient::ObjectsNear(const std::string& map,
+                                                             const Eigen::Vector3d& point,
+                                                             double radius_m,
+                                                             const std::string& label) {
+  grpc::ClientContext context;
+  SetDeadline(&context);
+  v1::ObjectsNearRequest request;
+  request.set_map(map);
+  ToProto(point, request.mutable_point());
+  request.set_radius(radius_m);
+  request.set_label(label);
+  v1::ObjectsNearResponse response;
+  SEMMAP_RETURN_IF_ERROR(FromGrpcStatus(stub_->ObjectsNear(&context, request, &response)));
+  std::vector<ObjectInstance> out;
+  for (const v1::ObjectInstanceInfo& o : response.objects()) out.push_back(FromProto(o));
+  return out;
+}
+
+StatusOr<ObjectType> MapClient::RegisterObject(const std::string& label, const std::string& map,
+                                               const std::vector<EncodedImage>& photos,
+                                               const std::optional<std::array<uint8_t, 3>>& rgb) {
+  grpc::ClientContext context;
+  SetDeadline(&context);
+  v1::RegisterObjectRequest request;
+  request.set_label(label);
+  request.set_map(map);
+  for (const EncodedImage& photo : photos) {
+    v1::CompressedImage* out = request.add_photos();
+    out->set_format(photo.format);
+    out->set_data(photo.bytes);
+  }
+  if (rgb) ToProto(*rgb, request.mutable_colour());
+  v1::RegisterObjectResponse response;
+  SEMMAP_RETURN_IF_ERROR(FromGrpcStatus(stub_->RegisterObject(&context, request, &response)));
+  return FromProto(response.object());
+}
+
+Status MapClient::RemoveObject(const std::string& label, const std::string& map) {
+  grpc::ClientContext context;
+  SetDeadline(&context);
+  v1::RemoveObjectRequest request;
+  request.set_label(label);
+  request.set_map(map);
+  v1::RemoveObjectResponse response;
+  return FromGrpcStatus(stub_->RemoveObject(&context, request, &response));
 }
 
 StatusOr<std::unique_ptr<IngestStream>> MapClient::Ingest(const v1::IngestStart& start,

@@ -4,9 +4,12 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <array>
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "client/lib/ingest_stream.h"
 #include "common/map_query.h"
@@ -36,6 +39,19 @@ class MapClient final : public MapQueryInterface {
                                                       bool keyframes_only) override;
   // Reassembles the chunks and checks the trailer's SHA-256 (DATA_LOSS on mismatch).
   StatusOr<ExportResult> ExportMap(const ExportRequest& request) override;
+
+  StatusOr<std::vector<ObjectType>> ListObjectTypes(const std::string& map) override;
+  StatusOr<std::vector<ObjectInstance>> FindObjects(const std::string& label,
+                                                    const std::string& map) override;
+  StatusOr<std::vector<ObjectInstance>> ObjectsNear(const std::string& map,
+                                                    const Eigen::Vector3d& point, double radius_m,
+                                                    const std::string& label) override;
+  // Registers an object type from photos (encoded png / jpeg as read from files); `map` empty:
+  // global. Without a colour the server picks one.
+  StatusOr<ObjectType> RegisterObject(const std::string& label, const std::string& map,
+                                      const std::vector<EncodedImage>& photos,
+                                      const std::optional<std::array<uint8_t, 3>>& rgb);
+  Status RemoveObject(const std::string& label, const std::string& map);
 
   // Opens an ingest stream; fails with the server's status if the start is refused.
   StatusOr<std::unique_ptr<IngestStream>> Ingest(const v1::IngestStart& start,

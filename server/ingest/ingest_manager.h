@@ -1,5 +1,6 @@
-// Owns the live ingest sessions of a server and the SLAM back end of each map they stream into:
-// opens them, stops them all at shutdown and joins their worker threads off the network threads.
+// Owns the live ingest sessions of a server and what runs per map they stream into (the SLAM back
+// end, the 3D layers): opens them, stops them all at shutdown and joins their worker threads off
+// the network threads.
 #pragma once
 
 #include <map>
@@ -14,9 +15,11 @@ namespace semmap {
 
 class IngestManager {
  public:
-  // `vocabulary` (may be null: no place recognition) is shared by every map's back end.
+  // `vocabulary` (may be null: no place recognition) is shared by every map's back end;
+  // `objects` (may be null: no object recognition) must outlive the manager.
   IngestManager(StorageWriter* writer, IngestOptions options,
-                std::shared_ptr<const BowVocabulary> vocabulary = nullptr);
+                std::shared_ptr<const BowVocabulary> vocabulary = nullptr,
+                const ObjectCatalog* objects = nullptr);
   ~IngestManager();
 
   // UNAVAILABLE once shutdown has begun.
@@ -29,7 +32,7 @@ class IngestManager {
 
  private:
   void ReapFinishedLocked();
-  StatusOr<std::shared_ptr<SlamBackend>> BackendFor(int64_t map_id);
+  StatusOr<MapPipelines> PipelinesFor(const SessionInfo& session, bool visual);
 
   StorageWriter* writer_;
   const IngestOptions options_;
@@ -37,9 +40,10 @@ class IngestManager {
   bool shutting_down_ = false;
   std::vector<std::shared_ptr<IngestSession>> sessions_;
   const std::shared_ptr<const BowVocabulary> vocabulary_;
-  std::mutex backends_mutex_;
-  // Back ends live as long as the server: a map's graph keeps growing across its sessions.
-  std::map<int64_t, std::shared_ptr<SlamBackend>> backends_;
+  const ObjectCatalog* const objects_;
+  std::mutex pipelines_mutex_;
+  // They live as long as the server: a map's graph and layers keep growing across its sessions.
+  std::map<int64_t, MapPipelines> pipelines_;
 };
 
 }  // namespace semmap

@@ -13,6 +13,8 @@ Status IngestOptions::Validate() const {
     return InvalidArgumentError("max frame bytes must be at least 1024");
   }
   SEMMAP_RETURN_IF_ERROR(keyframes.Validate().WithContext("keyframe options"));
+  SEMMAP_RETURN_IF_ERROR(layers.Validate());
+  SEMMAP_RETURN_IF_ERROR(objects.Validate());
   // The camera is the session's: validate the rest against a plausible one.
   RgbdTrackerOptions probe = tracker;
   probe.camera = CameraCalibration{640, 480, 525, 525, 319.5, 239.5};

@@ -3,6 +3,8 @@
 #include <cstddef>
 
 #include "common/status.h"
+#include "server/mapping/map_layer_builder.h"
+#include "server/objects/object_mapper.h"
 #include "server/odometry/rgbd_tracker.h"
 #include "server/slam/keyframe_selector.h"
 #include "server/slam/slam_backend.h"
@@ -20,6 +22,10 @@ struct IngestOptions {
   RgbdTrackerOptions tracker;
   // The per-map back end of RGBD sessions (loop closure, pose graph).
   SlamBackendOptions slam;
+  // The per-map 3D layers (occupancy, coloured cloud) built from keyframes with depth.
+  MapLayerOptions layers;
+  // Object recognition in RGBD sessions' keyframes and the map's object instances.
+  ObjectMapperOptions objects;
   Status Validate() const;
 };
 

@@ -41,12 +41,12 @@ std::string GeneratedSessionName() {
 }  // namespace
 
 IngestSession::IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer,
-                             IngestOptions options, SlamBackendProvider backends)
+                             IngestOptions options, MapPipelinesProvider pipelines)
     : sink_(std::move(sink)),
       writer_(writer),
       options_(std::move(options)),
       queue_(options_.queue_capacity),
-      backends_(std::move(backends)),
+      pipelines_(std::move(pipelines)),
       started_at_(std::chrono::steady_clock::now()) {
   decoder_ = std::thread([this] { RunDecoder(); });
   worker_ = std::thread([this] { Run(); });
@@ -181,8 +181,14 @@ Status IngestSession::HandleStart(const IngestStartRequest& start) {
     return InternalError("could not generate a unique session name");
   });
   SEMMAP_RETURN_IF_ERROR(status);
-  if (*start.mode == SessionMode::kRgbd && backends_) {
-    SEMMAP_ASSIGN_OR_RETURN(backend_, backends_(created.map_id));
+  if (pipelines_) {
+    const bool visual = *start.mode == SessionMode::kRgbd;
+    SEMMAP_ASSIGN_OR_RETURN(MapPipelines pipelines, pipelines_(created, visual));
+    if (visual) backend_ = std::move(pipelines.backend);
+    layers_ = std::move(pipelines.layers);
+    if (visual) objects_ = std::move(pipelines.objects);  // recognition needs keyframe features
+  }
+  if (backend_) {
     backend_->RegisterSession(created.id, created.camera, [this](const Eigen::Isometry3d& T) {
       std::lock_guard lock(correction_mutex_);
       pending_correction_ = pending_correction_ ? T * *pending_correction_ : T;
@@ -264,6 +270,14 @@ Status IngestSession::HandleFrame(IngestFrame& frame,
   if (backend_) {
     SEMMAP_RETURN_IF_ERROR(
         FeedBackend(decoded, estimate, previous_keyframe_seq, T_world_previous_keyframe));
+  }
+  if (layers_ && estimate.is_keyframe && decoded.depth) {
+    SEMMAP_RETURN_IF_ERROR(FeedLayers(decoded, estimate));
+  }
+  if (objects_ && estimate.is_keyframe && estimate.keyframe_features) {
+    SEMMAP_RETURN_IF_ERROR(objects_->AddKeyframe(session_->id, static_cast<int64_t>(frame.seq),
+                                                 decoded.stamp_ns, estimate.keyframe_features,
+                                                 session_->camera));
   }
   ++frames_;
   if (estimate.is_keyframe) ++keyframes_;
@@ -394,6 +408,16 @@ Status IngestSession::FeedBackend(const DecodedFrame& frame, const FrameEstimate
   return backend_->AddFrame(anchor);
 }
 
+Status IngestSession::FeedLayers(const DecodedFrame& frame, const FrameEstimate& estimate) {
+  const int64_t seq = static_cast<int64_t>(frame.seq);
+  SEMMAP_RETURN_IF_ERROR(
+      layers_->AddKeyframeImages(session_->id, seq, *frame.depth, frame.colour, session_->camera));
+  // Visual sessions' keyframes are placed by the back end (in its corrected frame); the others'
+  // poses are final as they are.
+  if (backend_) return OkStatus();
+  return layers_->SetKeyframePoses({{session_->id, seq, estimate.T_world_camera}}, false);
+}
+
 void IngestSession::ApplyPendingCorrection() {
   std::optional<Eigen::Isometry3d> correction;
   {
@@ -441,6 +465,40 @@ void IngestSession::Finish(Status status) {
                  static_cast<unsigned long long>(stats.rejected_xi),
                  static_cast<unsigned long long>(stats.rejected_inconsistent),
                  static_cast<unsigned long long>(stats.optimisations), stats.queue_high_water);
+  }
+  if (objects_) {
+    // After the back end's drain, like the layers below.
+    Status ended = objects_->EndSession(session_->id);
+    Status flushed = ended.ok() ? objects_->Flush() : ended;
+    if (status.ok() && !flushed.ok()) status = flushed;
+    const ObjectMapperStats stats = objects_->stats();
+    backend_stages.push_back(stats.recognise_ms);
+    std::fprintf(stderr,
+                 "semmapd: map '%s' objects: %llu keyframes searched for %zu types, %llu "
+                 "detections, %llu rejected by xi, %llu observations, %zu instances\n",
+                 session_->map_name.c_str(),
+                 static_cast<unsigned long long>(stats.keyframes_searched), stats.models,
+                 static_cast<unsigned long long>(stats.detections),
+                 static_cast<unsigned long long>(stats.rejected_by_xi),
+                 static_cast<unsigned long long>(stats.observations), stats.instances);
+  }
+  if (layers_) {
+    // After the back end's drain: its last corrections are queued to the layers already.
+    Status flushed = layers_->Flush();
+    if (status.ok() && !flushed.ok()) status = flushed;
+    const MapLayerStats stats = layers_->stats();
+    backend_stages.push_back(stats.insert_ms);
+    backend_stages.push_back(stats.rebuild_ms);
+    std::fprintf(stderr,
+                 "semmapd: map '%s' layers: %llu keyframes (%llu restored), %llu rebuilds, "
+                 "octree %.1f MiB, cloud %zu points, blobs %.1f + %.1f MiB\n",
+                 session_->map_name.c_str(),
+                 static_cast<unsigned long long>(stats.keyframes_inserted),
+                 static_cast<unsigned long long>(stats.restored_keyframes),
+                 static_cast<unsigned long long>(stats.rebuilds),
+                 static_cast<double>(stats.octree_bytes) / (1 << 20), stats.cloud_points,
+                 static_cast<double>(stats.occupancy_blob_bytes) / (1 << 20),
+                 static_cast<double>(stats.cloud_blob_bytes) / (1 << 20));
   }
   // Whatever was submitted is committed (or failed) before the client hears the final status,
   // so the summary's durable_seq is exact.

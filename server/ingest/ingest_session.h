@@ -24,14 +24,22 @@
 
 namespace semmap {
 
-// The map's SLAM back end for visual sessions (created on first use by the owner).
-using SlamBackendProvider = std::function<StatusOr<std::shared_ptr<SlamBackend>>(int64_t map_id)>;
+// What runs per map, shared by its sessions (created on first use by the owner): the SLAM back
+// end of visual sessions and the 3D layers built from keyframes with depth. Either may be null.
+struct MapPipelines {
+  std::shared_ptr<SlamBackend> backend;
+  std::shared_ptr<MapLayerBuilder> layers;
+  std::shared_ptr<ObjectMapper> objects;
+};
+using MapPipelinesProvider =
+    std::function<StatusOr<MapPipelines>(const SessionInfo& session, bool visual)>;
 
 class IngestSession {
  public:
-  // `backends` may be empty: visual sessions then run their front end alone (no loop closure).
+  // `pipelines` may be empty: visual sessions then run their front end alone (no loop closure)
+  // and no map layers are built.
   IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer, IngestOptions options,
-                SlamBackendProvider backends = nullptr);
+                MapPipelinesProvider pipelines = nullptr);
   ~IngestSession();  // stops and joins the worker
   IngestSession(const IngestSession&) = delete;
   IngestSession& operator=(const IngestSession&) = delete;
@@ -78,6 +86,8 @@ class IngestSession {
                    std::chrono::steady_clock::time_point submitted_at);
   void Finish(Status status);
   // Hands the frame (and its keyframe) to the back end, after its write was submitted.
+  // A keyframe with depth goes to the map layers.
+  Status FeedLayers(const DecodedFrame& frame, const FrameEstimate& estimate);
   Status FeedBackend(const DecodedFrame& frame, const FrameEstimate& estimate,
                      const std::optional<uint64_t>& previous_keyframe_seq,
                      const Eigen::Isometry3d& T_world_previous_keyframe);
@@ -93,8 +103,10 @@ class IngestSession {
   // Worker-thread state.
   std::optional<SessionInfo> session_;
   std::unique_ptr<FrameProcessor> processor_;
-  SlamBackendProvider backends_;
+  MapPipelinesProvider pipelines_;
   std::shared_ptr<SlamBackend> backend_;
+  std::shared_ptr<MapLayerBuilder> layers_;
+  std::shared_ptr<ObjectMapper> objects_;
   // Corrections from the back end's thread, applied before the next frame is tracked.
   std::mutex correction_mutex_;
   std::optional<Eigen::Isometry3d> pending_correction_;

@@ -1,7 +1,9 @@
 #include "server/mapping/occupancy_map.h"
 
+#include <octomap/ColorOcTree.h>
 #include <octomap/OcTree.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <exception>
@@ -16,23 +18,29 @@ namespace {
 constexpr int kTreeDepth = 16;
 // Log-odds beyond this are not from any sane clamping policy (p = 1 - 4e-18): damage.
 constexpr float kMaxAbsLogOdds = 40.0F;
-// Bytes per serialised OcTreeNode: float log-odds + one child-bit byte.
-constexpr size_t kNodeBytes = sizeof(float) + 1;
+
+// Serialised node records (OcTreeBaseImpl::writeNodesRecurs): the node's writeData(), then
+// one child-bit byte. OcTreeNode writes its float log-odds; ColorOcTreeNode adds r, g, b.
+constexpr size_t kColourBytes = 3;
+static_assert(sizeof(octomap::ColorOcTreeNode::Color) == kColourBytes);
+constexpr size_t kOcTreeNodeBytes = sizeof(float) + 1;
+constexpr size_t kColorNodeBytes = sizeof(float) + kColourBytes + 1;
 
 bool Finite(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
 
-// Walks the .ot node stream exactly as OcTreeBaseImpl::readNodesRecurs would read it, with
+// Walks an .ot node stream exactly as OcTreeBaseImpl::readNodesRecurs would read it, with
 // bounds: every read inside the data, no children below the leaf depth, finite values.
 class NodeStreamChecker {
  public:
-  explicit NodeStreamChecker(std::string_view data) : data_(data) {}
+  NodeStreamChecker(std::string_view data, size_t node_bytes)
+      : data_(data), node_bytes_(node_bytes) {}
 
   Status Check(size_t expected_nodes) {
     if (expected_nodes == 0) {
       if (!data_.empty()) return DataLossError("octree stream: data after an empty tree");
       return OkStatus();
     }
-    if (data_.size() % kNodeBytes != 0 || data_.size() / kNodeBytes != expected_nodes) {
+    if (data_.size() % node_bytes_ != 0 || data_.size() / node_bytes_ != expected_nodes) {
       return DataLossError("octree stream: " + std::to_string(data_.size()) + " data bytes for " +
                            std::to_string(expected_nodes) + " nodes");
     }
@@ -45,11 +53,11 @@ class NodeStreamChecker {
 
  private:
   Status Node(int depth) {
-    if (data_.size() - pos_ < kNodeBytes) return DataLossError("octree stream: truncated");
+    if (data_.size() - pos_ < node_bytes_) return DataLossError("octree stream: truncated");
     float value = 0;
     std::memcpy(&value, data_.data() + pos_, sizeof(value));
-    const auto children = static_cast<unsigned char>(data_[pos_ + sizeof(value)]);
-    pos_ += kNodeBytes;
+    const auto children = static_cast<unsigned char>(data_[pos_ + node_bytes_ - 1]);
+    pos_ += node_bytes_;
     ++nodes_;
     if (!std::isfinite(value) || std::fabs(value) > kMaxAbsLogOdds) {
       return DataLossError("octree stream: implausible log-odds value");
@@ -64,12 +72,38 @@ class NodeStreamChecker {
   }
 
   std::string_view data_;
+  size_t node_bytes_;
   size_t pos_ = 0;
   size_t nodes_ = 0;
 };
 
+// Records are fixed-size and in the same (depth-first) order in both layouts, so converting
+// between OcTree and ColorOcTree streams is a record-by-record copy.
+std::string OcTreeToColorStream(std::string_view data) {
+  std::string out;
+  out.reserve(data.size() / kOcTreeNodeBytes * kColorNodeBytes);
+  for (size_t pos = 0; pos + kOcTreeNodeBytes <= data.size(); pos += kOcTreeNodeBytes) {
+    out.append(data.substr(pos, sizeof(float)));
+    out.append(kColourBytes, '\xff');  // ColorOcTreeNode's "no colour" (white)
+    out.push_back(data[pos + sizeof(float)]);
+  }
+  return out;
+}
+
+std::string ColorToOcTreeStream(std::string_view data) {
+  std::string out;
+  out.reserve(data.size() / kColorNodeBytes * kOcTreeNodeBytes);
+  for (size_t pos = 0; pos + kColorNodeBytes <= data.size(); pos += kColorNodeBytes) {
+    out.append(data.substr(pos, sizeof(float)));
+    out.push_back(data[pos + kColorNodeBytes - 1]);
+  }
+  return out;
+}
+
+enum class OtType { kOcTree, kColorOcTree };
+
 struct OtHeader {
-  std::string id;
+  OtType type = OtType::kColorOcTree;
   size_t size = 0;
   double resolution = 0;
   size_t data_offset = 0;
@@ -85,6 +119,7 @@ StatusOr<OtHeader> ParseOtHeader(std::string_view ot) {
   }
   constexpr size_t kMaxHeaderBytes = 4096;
   OtHeader header;
+  std::string id;
   bool have_id = false, have_size = false, have_res = false;
   size_t pos = 0;
   for (;;) {
@@ -101,7 +136,7 @@ StatusOr<OtHeader> ParseOtHeader(std::string_view ot) {
     std::string key;
     fields >> key;
     if (key == "id") {
-      have_id = static_cast<bool>(fields >> header.id);
+      have_id = static_cast<bool>(fields >> id);
     } else if (key == "size") {
       long long n = -1;
       have_size = static_cast<bool>(fields >> n) && n >= 0;
@@ -117,11 +152,70 @@ StatusOr<OtHeader> ParseOtHeader(std::string_view ot) {
   if (!have_id || !have_size || !have_res) {
     return DataLossError(".ot header: missing or malformed id, size or res");
   }
-  if (header.id != "OcTree") {
-    return InvalidArgumentError(".ot tree type '" + header.id + "' is not supported (OcTree)");
+  if (id == "ColorOcTree") {
+    header.type = OtType::kColorOcTree;
+  } else if (id == "OcTree") {
+    header.type = OtType::kOcTree;
+  } else {
+    return InvalidArgumentError(".ot tree type '" + id +
+                                "' is not supported (ColorOcTree, OcTree)");
   }
   header.data_offset = pos;
   return header;
+}
+
+// Morton code of a key: bit i of k[c] at bit 3i + c, so dropping a tree level from every
+// coordinate is a 3-bit shift and sorted codes keep siblings adjacent at every level.
+uint64_t Morton(const octomap::OcTreeKey& key) {
+  auto spread = [](uint64_t x) {  // 16 bits -> every third bit
+    x = (x | x << 16) & 0x0000FF0000FFULL;
+    x = (x | x << 8) & 0x00F00F00F00FULL;
+    x = (x | x << 4) & 0x0C30C30C30C3ULL;
+    x = (x | x << 2) & 0x249249249249ULL;
+    return x;
+  };
+  return spread(key.k[0]) | spread(key.k[1]) << 1 | spread(key.k[2]) << 2;
+}
+
+// A keyframe point's end voxel and colour. Sorted by code, a voxel's points are adjacent and
+// the voxels come in the order UpdateInnerColours() needs (one sort, no per-voxel allocation).
+struct EndPoint {
+  uint64_t code;  // Morton(key)
+  octomap::OcTreeKey key;
+  std::array<uint8_t, 3> rgb;
+};
+
+// Gives the inner nodes above the recoloured voxels (`nodes`: their codes and keys, sorted)
+// their children's mean colour, bottom-up. ColorOcTree::updateInnerOccupancy() does this (and
+// inner occupancy, which non-lazy insertion already keeps current) for the whole tree: a quarter
+// of the insertion time at 30 keyframes, and growing with the map. Only these paths got new
+// colours. (Pruning free space can also drop a coloured child's colour from a parent's mean,
+// ColorOcTree::pruneNode keeping child 0's "no colour"; such parents keep their earlier mean.
+// Inner colours are for viewers: this class reads leaves.)
+void UpdateInnerColours(octomap::ColorOcTree& tree,
+                        std::vector<std::pair<uint64_t, octomap::OcTreeKey>> nodes) {
+  for (int depth = kTreeDepth - 1; depth >= 1; --depth) {
+    size_t parents = 0;  // one entry per parent at `depth` (any child's key addresses it)
+    for (size_t i = 0; i < nodes.size(); ++i) {
+      const uint64_t code = nodes[i].first >> 3;
+      if (parents > 0 && nodes[parents - 1].first == code) continue;
+      nodes[parents++] = {code, nodes[i].second};
+    }
+    nodes.resize(parents);
+    for (const auto& [code, key] : nodes) {
+      // search() ends early at a pruned leaf, which has no children to average.
+      octomap::ColorOcTreeNode* node = tree.search(key, static_cast<unsigned>(depth));
+      if (node != nullptr && tree.nodeHasChildren(node)) node->updateColorChildren();
+    }
+  }
+  // search(key, 0) means full depth, not the root.
+  octomap::ColorOcTreeNode* root = tree.getRoot();
+  if (root != nullptr && tree.nodeHasChildren(root)) root->updateColorChildren();
+}
+
+std::array<uint8_t, 3> Rgb(const octomap::ColorOcTreeNode& node) {
+  const octomap::ColorOcTreeNode::Color c = node.getColor();
+  return {c.r, c.g, c.b};
 }
 
 }  // namespace
@@ -201,7 +295,7 @@ StatusOr<KeyframeCloud> MakeKeyframeCloud(const DecodedDepth& depth, const cv::M
   return cloud;
 }
 
-OccupancyMap::OccupancyMap(std::unique_ptr<octomap::OcTree> tree,
+OccupancyMap::OccupancyMap(std::unique_ptr<octomap::ColorOcTree> tree,
                            const OccupancyMapOptions& options)
     : tree_(std::move(tree)), options_(options) {}
 OccupancyMap::OccupancyMap(OccupancyMap&&) noexcept = default;
@@ -211,7 +305,7 @@ OccupancyMap::~OccupancyMap() = default;
 StatusOr<OccupancyMap> OccupancyMap::Create(const OccupancyMapOptions& options) {
   SEMMAP_RETURN_IF_ERROR(options.Validate());
   try {
-    return OccupancyMap(std::make_unique<octomap::OcTree>(options.resolution_m), options);
+    return OccupancyMap(std::make_unique<octomap::ColorOcTree>(options.resolution_m), options);
   } catch (const std::exception& e) {
     return ResourceExhaustedError(std::string("occupancy map: ") + e.what());
   }
@@ -234,6 +328,10 @@ StatusOr<OccupancyMap> OccupancyMap::Build(
 
 Status OccupancyMap::Insert(const KeyframeCloud& cloud, const Eigen::Isometry3d& T_world_keyframe) {
   if (!Finite(T_world_keyframe)) return InvalidArgumentError("keyframe pose is not finite");
+  if (cloud.colours.size() != cloud.points.size()) {
+    return InvalidArgumentError("keyframe cloud has " + std::to_string(cloud.points.size()) +
+                                " points but " + std::to_string(cloud.colours.size()) + " colours");
+  }
   // OctoMap keys cover +-2^15 voxels around the origin; keep every ray inside.
   const double half_extent = options_.resolution_m * 32768.0 * 0.99 - options_.max_range_m;
   if (T_world_keyframe.translation().cwiseAbs().maxCoeff() > half_extent) {
@@ -242,18 +340,44 @@ Status OccupancyMap::Insert(const KeyframeCloud& cloud, const Eigen::Isometry3d&
   try {
     octomap::Pointcloud scan;
     scan.reserve(cloud.points.size());
+    // Each end voxel gets the mean colour of the keyframe's points in it, once: one tree
+    // search per voxel rather than per point, and not an order-dependent running average.
+    std::vector<EndPoint> ends;
+    ends.reserve(cloud.points.size());
     const Eigen::Matrix3f R = T_world_keyframe.linear().cast<float>();
     const Eigen::Vector3f t = T_world_keyframe.translation().cast<float>();
-    for (const Eigen::Vector3f& p : cloud.points) {
+    for (size_t i = 0; i < cloud.points.size(); ++i) {
+      const Eigen::Vector3f& p = cloud.points[i];
       if (!p.allFinite() || p.squaredNorm() > options_.max_range_m * options_.max_range_m) {
         continue;
       }
       const Eigen::Vector3f w = R * p + t;
-      scan.push_back(w.x(), w.y(), w.z());
+      const octomap::point3d q(w.x(), w.y(), w.z());
+      scan.push_back(q);
+      // The same float point OctoMap keys (computeDiscreteUpdate), so the same end voxel.
+      octomap::OcTreeKey key;
+      if (!tree_->coordToKeyChecked(q, key)) continue;
+      const std::array<uint8_t, 3>& bgr = cloud.colours[i];
+      ends.push_back({Morton(key), key, {bgr[2], bgr[1], bgr[0]}});
     }
+    std::sort(ends.begin(), ends.end(),
+              [](const EndPoint& a, const EndPoint& b) { return a.code < b.code; });
     const octomap::point3d origin(t.x(), t.y(), t.z());
     tree_->insertPointCloud(scan, origin, options_.max_range_m, /*lazy_eval=*/false,
                             options_.discretize);
+    std::vector<std::pair<uint64_t, octomap::OcTreeKey>> voxels;
+    voxels.reserve(ends.size());
+    for (size_t begin = 0, end = 0; begin < ends.size(); begin = end) {
+      std::array<uint32_t, 3> sum{};
+      for (end = begin; end < ends.size() && ends[end].code == ends[begin].code; ++end) {
+        for (size_t c = 0; c < 3; ++c) sum[c] += ends[end].rgb[c];
+      }
+      const auto n = static_cast<uint32_t>(end - begin);
+      auto mean = [&](size_t c) { return static_cast<uint8_t>((sum[c] + n / 2) / n); };
+      tree_->averageNodeColor(ends[begin].key, mean(0), mean(1), mean(2));
+      voxels.emplace_back(ends[begin].code, ends[begin].key);
+    }
+    UpdateInnerColours(*tree_, std::move(voxels));
   } catch (const std::bad_alloc&) {
     return ResourceExhaustedError("occupancy map insertion: out of memory");
   } catch (const std::exception& e) {
@@ -268,9 +392,19 @@ VoxelState OccupancyMap::Occupancy(const Eigen::Vector3d& p_world) const {
   if (!tree_->coordToKeyChecked(p_world.x(), p_world.y(), p_world.z(), key)) {
     return VoxelState::kUnknown;
   }
-  const octomap::OcTreeNode* node = tree_->search(key);
+  const octomap::ColorOcTreeNode* node = tree_->search(key);
   if (node == nullptr) return VoxelState::kUnknown;
   return tree_->isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree;
+}
+
+std::optional<std::array<uint8_t, 3>> OccupancyMap::ColourAt(const Eigen::Vector3d& p_world) const {
+  if (!p_world.allFinite()) return std::nullopt;
+  octomap::OcTreeKey key;
+  if (!tree_->coordToKeyChecked(p_world.x(), p_world.y(), p_world.z(), key)) return std::nullopt;
+  // search() ends at a leaf (possibly a pruned, larger one) or finds nothing.
+  const octomap::ColorOcTreeNode* node = tree_->search(key);
+  if (node == nullptr || !tree_->isNodeOccupied(node)) return std::nullopt;
+  return Rgb(*node);
 }
 
 size_t OccupancyMap::size() const { return tree_->size(); }
@@ -280,7 +414,7 @@ size_t OccupancyMap::MemoryBytes() const { return tree_->memoryUsage(); }
 Eigen::AlignedBox3d OccupancyMap::Bounds() const {
   Eigen::AlignedBox3d box;  // empty
   if (tree_->size() == 0) return box;
-  const octomap::OcTree& tree = *tree_;
+  const octomap::ColorOcTree& tree = *tree_;
   double x0 = 0, y0 = 0, z0 = 0, x1 = 0, y1 = 0, z1 = 0;
   tree.getMetricMin(x0, y0, z0);
   tree.getMetricMax(x1, y1, z1);
@@ -294,7 +428,8 @@ std::vector<OccupancyMap::Voxel> OccupancyMap::OccupiedVoxels() const {
   for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
     if (!tree_->isNodeOccupied(*it)) continue;
     const octomap::point3d c = it.getCoordinate();
-    voxels.push_back({Eigen::Vector3d(c.x(), c.y(), c.z()), it.getSize(), it->getLogOdds()});
+    voxels.push_back(
+        {Eigen::Vector3d(c.x(), c.y(), c.z()), it.getSize(), it->getLogOdds(), Rgb(*it)});
   }
   return voxels;
 }
@@ -311,7 +446,17 @@ StatusOr<std::string> OccupancyMap::SerializeOt() const {
 
 StatusOr<std::string> OccupancyMap::SerializeBt() const {
   try {
-    octomap::OcTree copy(*tree_);  // writeBinary() makes it max-likelihood and prunes it
+    // .bt has no colour: export an OcTree (id "OcTree", what .bt readers expect) with the
+    // same nodes, built from the colour-stripped node stream. writeBinary() makes the copy
+    // max-likelihood and prunes it.
+    octomap::OcTree copy(tree_->getResolution());
+    if (tree_->getRoot() != nullptr) {
+      std::ostringstream colour_data;
+      tree_->writeData(colour_data);
+      std::istringstream in(ColorToOcTreeStream(colour_data.str()));
+      copy.readData(in);
+      if (copy.size() != tree_->size()) return InternalError("occupancy map: .bt copy failed");
+    }
     std::ostringstream out;
     if (!copy.writeBinary(out) || !out) return InternalError("occupancy map: .bt write failed");
     return std::move(out).str();
@@ -331,11 +476,13 @@ StatusOr<OccupancyMap> OccupancyMap::DeserializeOt(std::string_view ot,
   }
   SEMMAP_RETURN_IF_ERROR(options.Validate().WithContext(".ot"));
   const std::string_view data = ot.substr(header.data_offset);
-  SEMMAP_RETURN_IF_ERROR(NodeStreamChecker(data).Check(header.size));
+  const bool colour = header.type == OtType::kColorOcTree;
+  SEMMAP_RETURN_IF_ERROR(
+      NodeStreamChecker(data, colour ? kColorNodeBytes : kOcTreeNodeBytes).Check(header.size));
   try {
-    auto tree = std::make_unique<octomap::OcTree>(header.resolution);
+    auto tree = std::make_unique<octomap::ColorOcTree>(header.resolution);
     if (header.size > 0) {
-      std::istringstream in{std::string(data)};
+      std::istringstream in{colour ? std::string(data) : OcTreeToColorStream(data)};
       tree->readData(in);
       if (in.bad()) return DataLossError(".ot data: read failed");
     }

@@ -1,17 +1,21 @@
-// Occupancy map of one semantic map: an OctoMap OcTree built from keyframe depth.
+// Occupancy map of one semantic map: an OctoMap ColorOcTree built from keyframe depth and colour.
 //
 // Each keyframe contributes a KeyframeCloud kept in the keyframe's own camera frame, so a
 // pose-graph correction only needs the keyframes' new poses: OccupancyMap::Build() makes a
 // fresh tree from the clouds at the corrected poses (the caller swaps it in when done).
 //
-// Persistence: SerializeOt() writes the full-probability .ot form with OcTree::write(), which
-// leaves the live tree untouched (OctoMap's writeBinary() would prune it). DeserializeOt()
-// checks the header and walks the whole node stream itself before handing it to OctoMap,
-// whose reader trusts its input (truncated files load silently, garbage can recurse without
-// bound). Blobs are additionally checksummed by the store (MapStore::GetBlob, DATA_LOSS).
+// Colour: after a keyframe's ray casting, the mean colour of the keyframe's points in each end
+// voxel is averaged into that voxel (ColorOcTree::averageNodeColor: new = (old + mean) / 2, so
+// repeated observations converge), then inner nodes get their children's mean colour. OctoMap
+// treats pure white (255, 255, 255) as "no colour yet", so white voxels may be uncoloured ones.
 //
-// Colour is carried in KeyframeCloud but not yet in the tree (OcTree, not ColorOcTree): a
-// coloured layer comes with the point-cloud part of issue 5.
+// Persistence: SerializeOt() writes the full-probability ColorOcTree .ot form with
+// AbstractOcTree::write(), which leaves the live tree untouched (OctoMap's writeBinary() would
+// prune it). DeserializeOt() checks the header and walks the whole node stream itself before
+// handing it to OctoMap, whose reader trusts its input (truncated files load silently, garbage
+// can recurse without bound); plain OcTree .ot files load too (uncoloured, i.e. white). Blobs
+// are additionally checksummed by the store (MapStore::GetBlob, DATA_LOSS). The .bt export
+// (SerializeBt) is an OcTree without colour: the format has none.
 //
 // OctoMap stays out of this header. Not thread-safe: one writer, or readers only.
 #pragma once
@@ -22,6 +26,7 @@
 #include <cstdint>
 #include <memory>
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -32,7 +37,7 @@
 #include "server/sensor/image_decoding.h"
 
 namespace octomap {
-class OcTree;
+class ColorOcTree;
 }  // namespace octomap
 
 namespace semmap {
@@ -70,8 +75,9 @@ class OccupancyMap {
  public:
   struct Voxel {
     Eigen::Vector3d centre;
-    double size = 0;     // edge, metres (larger than the resolution for pruned nodes)
-    float log_odds = 0;  // OctoMap's stored value
+    double size = 0;               // edge, metres (larger than the resolution for pruned nodes)
+    float log_odds = 0;            // OctoMap's stored value
+    std::array<uint8_t, 3> rgb{};  // node colour, RGB (white where none was integrated)
   };
 
   // An empty map. INVALID_ARGUMENT for bad options.
@@ -88,11 +94,16 @@ class OccupancyMap {
   OccupancyMap& operator=(const OccupancyMap&) = delete;
   ~OccupancyMap();
 
-  // Ray-casts the cloud from the keyframe's origin: free along each ray, occupied at the end.
+  // Ray-casts the cloud from the keyframe's origin: free along each ray, occupied at the end,
+  // then averages the points' colours into their end voxels. INVALID_ARGUMENT for a non-finite
+  // pose or a cloud whose colour count differs from its point count, OUT_OF_RANGE for a pose
+  // outside the tree's extent.
   Status Insert(const KeyframeCloud& cloud, const Eigen::Isometry3d& T_world_keyframe);
 
   // kUnknown outside the tree's range or where no ray has passed.
   VoxelState Occupancy(const Eigen::Vector3d& p_world) const;
+  // RGB colour of the occupied leaf at the point; nullopt where Occupancy() is not kOccupied.
+  std::optional<std::array<uint8_t, 3>> ColourAt(const Eigen::Vector3d& p_world) const;
 
   size_t size() const;         // tree nodes (inner and leaves)
   size_t MemoryBytes() const;  // OctoMap's estimate of the tree's memory
@@ -105,18 +116,20 @@ class OccupancyMap {
 
   // Full-probability .ot bytes; never prunes or otherwise changes the tree.
   StatusOr<std::string> SerializeOt() const;
-  // Reads SerializeOt() bytes (an OcTree .ot). The resolution comes from the bytes and
-  // overrides options.resolution_m. INVALID_ARGUMENT for something that is not an OcTree
-  // .ot, DATA_LOSS for a damaged one (truncated, inconsistent, non-finite values).
+  // Reads SerializeOt() bytes (a ColorOcTree .ot) or a plain OcTree .ot (loaded with the same
+  // occupancy, uncoloured). The resolution comes from the bytes and overrides
+  // options.resolution_m. INVALID_ARGUMENT for something that is not an .ot of either type,
+  // DATA_LOSS for a damaged one (truncated, inconsistent, non-finite values).
   static StatusOr<OccupancyMap> DeserializeOt(std::string_view ot,
                                               OccupancyMapOptions options = {});
-  // Maximum-likelihood binary .bt of a pruned copy (for export); the live tree is untouched.
+  // Maximum-likelihood binary .bt (an OcTree, no colour) of a pruned copy, for export; the
+  // live tree is untouched.
   StatusOr<std::string> SerializeBt() const;
 
  private:
-  OccupancyMap(std::unique_ptr<octomap::OcTree> tree, const OccupancyMapOptions& options);
+  OccupancyMap(std::unique_ptr<octomap::ColorOcTree> tree, const OccupancyMapOptions& options);
 
-  std::unique_ptr<octomap::OcTree> tree_;
+  std::unique_ptr<octomap::ColorOcTree> tree_;
   OccupancyMapOptions options_;
 };
 

@@ -62,6 +62,12 @@ class PointCloudMap {
       const std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>>& keyframes,
       const PointCloudMapOptions& options);
 
+  // A map read back from its stored form (ReadCloudPcd): the points as they are, no filtering.
+  static PointCloudMap FromPoints(std::vector<CloudPoint> points,
+                                  const PointCloudMapOptions& options) {
+    return PointCloudMap(std::move(points), options);
+  }
+
   size_t size() const { return points_.size(); }
   bool empty() const { return points_.empty(); }
   // In PCL's voxel order (not spatially meaningful beyond that).

@@ -7,6 +7,7 @@
 #include "common/sha256.h"
 #include "common/time_util.h"
 #include "common/tum_format.h"
+#include "server/query/map_layer_export.h"
 
 namespace semmap {
 namespace {
@@ -76,8 +77,14 @@ StatusOr<std::string> ExportJson(MapStore& store, const ExportRequest& request) 
 
 }  // namespace
 
-StatusOr<ExportResult> BuildExport(MapStore& store, const ExportRequest& request) {
+StatusOr<ExportResult> BuildExport(MapStore& store, const ExportRequest& request,
+                                   const MapLayerOptions& layers) {
   if (request.map.empty()) return InvalidArgumentError("export needs a map name");
+  if (IsLayerExportFormat(request.format)) {
+    SEMMAP_ASSIGN_OR_RETURN(ExportResult result, BuildLayerExport(store, request, layers));
+    result.sha256_hex = ToHex(Sha256(result.bytes));
+    return result;
+  }
   ExportResult result;
   result.format = request.format;
   if (request.format == "tum") {
@@ -88,7 +95,7 @@ StatusOr<ExportResult> BuildExport(MapStore& store, const ExportRequest& request
     SEMMAP_ASSIGN_OR_RETURN(result.bytes, ExportJson(store, request));
   } else {
     return InvalidArgumentError("unknown export format '" + request.format +
-                                "' (supported: tum, json)");
+                                "' (supported: tum, json, ot, bt, ply, pcd, png)");
   }
   result.sha256_hex = ToHex(Sha256(result.bytes));
   return result;

@@ -1,6 +1,9 @@
 #include "server/service/map_service.h"
 
+#include <algorithm>
+
 #include "rpc/conversions.h"
+#include "rpc/object_conversions.h"
 #include "server/service/ingest_reactor.h"
 #include "server/service/message_stream_reactor.h"
 
@@ -60,7 +63,14 @@ grpc::ServerWriteReactor<v1::GetTrajectoryResponse>* MapServiceImpl::GetTrajecto
 grpc::ServerWriteReactor<v1::ExportMapResponse>* MapServiceImpl::ExportMap(
     grpc::CallbackServerContext*, const v1::ExportMapRequest* request) {
   using Reactor = MessageStreamReactor<v1::ExportMapResponse>;
-  ExportRequest export_request{request->map(), request->format(), request->session()};
+  ExportRequest export_request;
+  export_request.map = request->map();
+  export_request.format = request->format();
+  export_request.session = request->session();
+  export_request.ascii = request->ascii();
+  export_request.voxel_m = request->voxel();
+  export_request.view = request->view();
+  export_request.width_px = static_cast<int>(std::min<uint32_t>(request->width(), 1u << 20));
   StatusOr<ExportResult> result = query_->ExportMap(export_request);
   if (!result.ok()) return new Reactor(ToGrpcStatus(result.status()));
   std::vector<v1::ExportMapResponse> messages;
@@ -75,6 +85,65 @@ grpc::ServerWriteReactor<v1::ExportMapResponse>* MapServiceImpl::ExportMap(
   trailer->set_sha256(result->sha256_hex);
   trailer->set_total_bytes(result->bytes.size());
   return new Reactor(std::move(messages));
+}
+
+grpc::ServerUnaryReactor* MapServiceImpl::RegisterObject(grpc::CallbackServerContext* context,
+                                                         const v1::RegisterObjectRequest* request,
+                                                         v1::RegisterObjectResponse* response) {
+  RegisterObjectInput input;
+  input.label = request->label();
+  input.map = request->map();
+  for (const v1::CompressedImage& photo : request->photos()) {
+    input.photos.push_back({photo.format(), photo.data()});
+  }
+  if (request->has_colour()) {
+    const v1::Colour& c = request->colour();
+    if (c.r() > 255 || c.g() > 255 || c.b() > 255) {
+      return FinishUnary(context, InvalidArgumentError("colour channels must be 0..255"));
+    }
+    input.rgb = FromProto(c);
+  }
+  StatusOr<ObjectType> type = objects_->Register(input);
+  if (type.ok()) ToProto(*type, response->mutable_object());
+  return FinishUnary(context, type.status());
+}
+
+grpc::ServerUnaryReactor* MapServiceImpl::ListObjects(grpc::CallbackServerContext* context,
+                                                      const v1::ListObjectsRequest* request,
+                                                      v1::ListObjectsResponse* response) {
+  StatusOr<std::vector<ObjectType>> types = query_->ListObjectTypes(request->map());
+  if (types.ok()) {
+    for (const ObjectType& t : *types) ToProto(t, response->add_objects());
+  }
+  return FinishUnary(context, types.status());
+}
+
+grpc::ServerUnaryReactor* MapServiceImpl::RemoveObject(grpc::CallbackServerContext* context,
+                                                       const v1::RemoveObjectRequest* request,
+                                                       v1::RemoveObjectResponse*) {
+  return FinishUnary(context, objects_->Remove(request->label(), request->map()));
+}
+
+grpc::ServerUnaryReactor* MapServiceImpl::FindObjects(grpc::CallbackServerContext* context,
+                                                      const v1::FindObjectsRequest* request,
+                                                      v1::FindObjectsResponse* response) {
+  StatusOr<std::vector<ObjectInstance>> found =
+      query_->FindObjects(request->label(), request->map());
+  if (found.ok()) {
+    for (const ObjectInstance& o : *found) ToProto(o, response->add_objects());
+  }
+  return FinishUnary(context, found.status());
+}
+
+grpc::ServerUnaryReactor* MapServiceImpl::ObjectsNear(grpc::CallbackServerContext* context,
+                                                      const v1::ObjectsNearRequest* request,
+                                                      v1::ObjectsNearResponse* response) {
+  StatusOr<std::vector<ObjectInstance>> found = query_->ObjectsNear(
+      request->map(), FromProto(request->point()), request->radius(), request->label());
+  if (found.ok()) {
+    for (const ObjectInstance& o : *found) ToProto(o, response->add_objects());
+  }
+  return FinishUnary(context, found.status());
 }
 
 }  // namespace semmap

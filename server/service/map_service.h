@@ -5,13 +5,14 @@
 #include "common/map_query.h"
 #include "semmap/v1/service.grpc.pb.h"
 #include "server/ingest/ingest_manager.h"
+#include "server/objects/object_catalog.h"
 
 namespace semmap {
 
 class MapServiceImpl final : public v1::MapService::CallbackService {
  public:
-  MapServiceImpl(IngestManager* ingest, MapQueryInterface* query)
-      : ingest_(ingest), query_(query) {}
+  MapServiceImpl(IngestManager* ingest, MapQueryInterface* query, ObjectCatalog* objects)
+      : ingest_(ingest), query_(query), objects_(objects) {}
 
   grpc::ServerBidiReactor<v1::IngestRequest, v1::IngestResponse>* Ingest(
       grpc::CallbackServerContext* context) override;
@@ -25,10 +26,26 @@ class MapServiceImpl final : public v1::MapService::CallbackService {
       grpc::CallbackServerContext* context, const v1::GetTrajectoryRequest* request) override;
   grpc::ServerWriteReactor<v1::ExportMapResponse>* ExportMap(
       grpc::CallbackServerContext* context, const v1::ExportMapRequest* request) override;
+  grpc::ServerUnaryReactor* RegisterObject(grpc::CallbackServerContext* context,
+                                           const v1::RegisterObjectRequest* request,
+                                           v1::RegisterObjectResponse* response) override;
+  grpc::ServerUnaryReactor* ListObjects(grpc::CallbackServerContext* context,
+                                        const v1::ListObjectsRequest* request,
+                                        v1::ListObjectsResponse* response) override;
+  grpc::ServerUnaryReactor* RemoveObject(grpc::CallbackServerContext* context,
+                                         const v1::RemoveObjectRequest* request,
+                                         v1::RemoveObjectResponse* response) override;
+  grpc::ServerUnaryReactor* FindObjects(grpc::CallbackServerContext* context,
+                                        const v1::FindObjectsRequest* request,
+                                        v1::FindObjectsResponse* response) override;
+  grpc::ServerUnaryReactor* ObjectsNear(grpc::CallbackServerContext* context,
+                                        const v1::ObjectsNearRequest* request,
+                                        v1::ObjectsNearResponse* response) override;
 
  private:
   IngestManager* ingest_;
   MapQueryInterface* query_;
+  ObjectCatalog* objects_;
 };
 
 }  // namespace semmap

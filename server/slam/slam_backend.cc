@@ -77,12 +77,13 @@ StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id) {
 
 StatusOr<std::unique_ptr<SlamBackend>> SlamBackend::Start(
     int64_t map_id, SlamBackendOptions options, std::shared_ptr<const BowVocabulary> vocabulary,
-    StorageWriter* writer, const MapSnapshot* snapshot) {
+    StorageWriter* writer, const MapSnapshot* snapshot, KeyframePoseListener pose_listener) {
   SEMMAP_RETURN_IF_ERROR(options.Validate());
   if (writer == nullptr) return InvalidArgumentError("slam back end needs a storage writer");
   std::unique_ptr<SlamBackend> backend(
       new SlamBackend(map_id, std::move(options), std::move(vocabulary), writer));
   if (snapshot) SEMMAP_RETURN_IF_ERROR(backend->Restore(*snapshot).WithContext("map snapshot"));
+  backend->pose_listener_ = std::move(pose_listener);
   backend->worker_ = std::thread([raw = backend.get()] { raw->Run(); });
   return backend;
 }
@@ -251,6 +252,10 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   if (previous)
     kf.T_world_keyframe = graph_.node(*previous).T_world_keyframe * event.T_previous_keyframe;
   const int index = AddNode(std::move(kf));
+  if (pose_listener_) {
+    const GraphKeyframe& added = graph_.node(index);
+    pose_listener_({{added.session_id, added.seq, added.T_world_keyframe}}, false);
+  }
   if (previous) {
     GraphEdge edge;
     edge.from = *previous;
@@ -415,6 +420,16 @@ bool SlamBackend::OptimiseAndCorrect(bool check_new_loop) {
       ++stats_.rejected_inconsistent;
       return false;
     }
+  }
+  if (pose_listener_) {
+    std::vector<KeyframePose> moved;
+    for (int i = 0; i < graph_.size(); ++i) {
+      const GraphKeyframe& k = graph_.node(i);
+      if (Moved(before[static_cast<size_t>(i)], k.T_world_keyframe)) {
+        moved.push_back({k.session_id, k.seq, k.T_world_keyframe});
+      }
+    }
+    if (!moved.empty()) pose_listener_(std::move(moved), true);
   }
   // Every keyframe and frame that moved is rewritten.
   for (const auto& [session_id, anchors] : anchors_) {

@@ -137,14 +137,20 @@ class SlamBackend {
  public:
   // The session's tracker moves to the corrected frame: T_corrected_world * T_world_x.
   using CorrectionCallback = std::function<void(const Eigen::Isometry3d& T_corrected_world)>;
+  // Where keyframes are, for layers built from them (map layers): a new keyframe's pose when
+  // it joins the graph (correction false), and every moved keyframe's after an optimisation
+  // (correction true). Runs on the back end's thread; may block briefly (bounded queue).
+  using KeyframePoseListener =
+      std::function<void(std::vector<KeyframePose> poses, bool correction)>;
 
   // `vocabulary` may be null: then only local (pose-proximity) candidates are searched.
   // `writer` must outlive the back end.
   // `snapshot` (may be null) is loaded before the worker starts; DATA_LOSS for features that
-  // do not decode.
+  // do not decode. `pose_listener` may be empty.
   static StatusOr<std::unique_ptr<SlamBackend>> Start(
       int64_t map_id, SlamBackendOptions options, std::shared_ptr<const BowVocabulary> vocabulary,
-      StorageWriter* writer, const MapSnapshot* snapshot = nullptr);
+      StorageWriter* writer, const MapSnapshot* snapshot = nullptr,
+      KeyframePoseListener pose_listener = nullptr);
   ~SlamBackend();  // drains queued events, then joins the worker
   SlamBackend(const SlamBackend&) = delete;
   SlamBackend& operator=(const SlamBackend&) = delete;
@@ -207,6 +213,7 @@ class SlamBackend {
   const SlamBackendOptions options_;
   const std::shared_ptr<const BowVocabulary> vocabulary_;
   StorageWriter* const writer_;
+  KeyframePoseListener pose_listener_;  // set before the worker starts
   BoundedQueue<Event> queue_;
 
   // Worker-thread state.

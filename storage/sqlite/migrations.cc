@@ -98,9 +98,95 @@ CREATE TABLE keyframe_features (
 ) STRICT;
 )sql";
 
+// Version 3: the semantic layer. Object types a user registers (global with map_id NULL, or one
+// map's) with their photos and checksummed features; recognitions of a type in a keyframe (in
+// the keyframe's camera frame, so they follow pose corrections); and the instances fused per map
+// (map frame), indexed by an R*Tree of point boxes for radius queries.
+constexpr char kSchemaV3[] = R"sql(
+CREATE TABLE object_types (
+  id INTEGER PRIMARY KEY,
+  label TEXT NOT NULL,
+  map_id INTEGER REFERENCES maps(id) ON DELETE CASCADE,
+  r INTEGER NOT NULL CHECK (r BETWEEN 0 AND 255),
+  g INTEGER NOT NULL CHECK (g BETWEEN 0 AND 255),
+  b INTEGER NOT NULL CHECK (b BETWEEN 0 AND 255),
+  created_ns INTEGER NOT NULL
+) STRICT;
+-- UNIQUE (label, map_id) would let global types (NULL) repeat a label; map ids start at 1, so
+-- 0 stands for the global scope.
+CREATE UNIQUE INDEX object_types_by_scope ON object_types (label, ifnull(map_id, 0));
+CREATE INDEX object_types_by_map ON object_types (map_id);
+
+CREATE TABLE object_views (
+  id INTEGER PRIMARY KEY,
+  type_id INTEGER NOT NULL REFERENCES object_types(id) ON DELETE CASCADE,
+  image_format TEXT NOT NULL,
+  image BLOB NOT NULL,
+  width INTEGER NOT NULL,
+  height INTEGER NOT NULL,
+  features_format TEXT NOT NULL,
+  features BLOB NOT NULL,
+  features_length INTEGER NOT NULL,
+  features_sha256 BLOB NOT NULL CHECK (length(features_sha256) = 32)
+) STRICT;
+CREATE INDEX object_views_by_type ON object_views (type_id, id);
+
+CREATE TABLE object_observations (
+  id INTEGER PRIMARY KEY,
+  map_id INTEGER NOT NULL REFERENCES maps(id) ON DELETE CASCADE,
+  type_id INTEGER NOT NULL REFERENCES object_types(id) ON DELETE CASCADE,
+  keyframe_id INTEGER NOT NULL REFERENCES keyframes(id) ON DELETE CASCADE,
+  px REAL NOT NULL, py REAL NOT NULL, pz REAL NOT NULL,
+  ex REAL NOT NULL, ey REAL NOT NULL, ez REAL NOT NULL,
+  matches INTEGER NOT NULL,
+  inliers INTEGER NOT NULL,
+  xi REAL NOT NULL,
+  stamp_ns INTEGER NOT NULL
+) STRICT;
+CREATE INDEX object_observations_by_map ON object_observations (map_id, keyframe_id);
+CREATE INDEX object_observations_by_type ON object_observations (type_id);
+CREATE INDEX object_observations_by_keyframe ON object_observations (keyframe_id);
+
+-- session_ids: the sessions that saw the instance, ascending, comma-separated ("3,5").
+-- AUTOINCREMENT: every replacement writes new rows, and an id a client saw must never come
+-- back naming another instance.
+CREATE TABLE object_instances (
+  id INTEGER PRIMARY KEY AUTOINCREMENT,
+  map_id INTEGER NOT NULL REFERENCES maps(id) ON DELETE CASCADE,
+  type_id INTEGER NOT NULL REFERENCES object_types(id) ON DELETE CASCADE,
+  label TEXT NOT NULL,
+  x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL,
+  ex REAL NOT NULL, ey REAL NOT NULL, ez REAL NOT NULL,
+  confidence REAL NOT NULL CHECK (confidence BETWEEN 0 AND 1),
+  observations INTEGER NOT NULL,
+  session_ids TEXT NOT NULL,
+  first_seen_ns INTEGER NOT NULL,
+  last_seen_ns INTEGER NOT NULL
+) STRICT;
+CREATE INDEX object_instances_by_map ON object_instances (map_id, label, confidence DESC);
+CREATE INDEX object_instances_by_type ON object_instances (type_id);
+
+-- One point box per instance (same id). A virtual table takes no part in foreign-key cascades,
+-- so triggers keep it in step with object_instances, including rows that a cascade from
+-- object_types, maps or a replaced map's instances deletes (triggers fire for cascades).
+CREATE VIRTUAL TABLE object_instances_rtree USING rtree(id, min_x, max_x, min_y, max_y,
+                                                        min_z, max_z);
+CREATE TRIGGER object_instances_rtree_insert AFTER INSERT ON object_instances BEGIN
+  INSERT INTO object_instances_rtree VALUES (new.id, new.x, new.x, new.y, new.y, new.z, new.z);
+END;
+CREATE TRIGGER object_instances_rtree_update AFTER UPDATE OF x, y, z ON object_instances BEGIN
+  UPDATE object_instances_rtree SET min_x = new.x, max_x = new.x, min_y = new.y, max_y = new.y,
+    min_z = new.z, max_z = new.z WHERE id = new.id;
+END;
+CREATE TRIGGER object_instances_rtree_delete AFTER DELETE ON object_instances BEGIN
+  DELETE FROM object_instances_rtree WHERE id = old.id;
+END;
+)sql";
+
 constexpr Migration kMigrations[] = {
     {1, "initial schema", kSchemaV1},
     {2, "keyframe features", kSchemaV2},
+    {3, "objects", kSchemaV3},
 };
 
 }  // namespace

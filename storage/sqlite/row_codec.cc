@@ -1,9 +1,11 @@
 #include "storage/sqlite/row_codec.h"
 
+#include <algorithm>
 #include <bit>
 #include <cstdint>
 
 #include "common/pose.h"
+#include "common/sha256.h"
 
 namespace semmap::sqlite {
 
@@ -51,6 +53,27 @@ StatusOr<InformationMatrix> DecodeInformation(std::string_view bytes) {
     information(i / 6, i % 6) = std::bit_cast<double>(bits);
   }
   return information;
+}
+
+std::string Sha256Bytes(std::string_view data) {
+  const Sha256Digest digest = Sha256(data);
+  return std::string(reinterpret_cast<const char*>(digest.data()), digest.size());
+}
+
+Status VerifyChecksummed(const std::string& name, const std::string& data, int64_t length,
+                         const std::string& stored_digest) {
+  if (static_cast<int64_t>(data.size()) != length) {
+    return DataLossError(name + " is corrupt: stored length " + std::to_string(length) + ", read " +
+                         std::to_string(data.size()) + " bytes");
+  }
+  const Sha256Digest digest = Sha256(data);
+  if (stored_digest.size() != digest.size() ||
+      !std::equal(digest.begin(), digest.end(), stored_digest.begin(),
+                  [](uint8_t a, char b) { return a == static_cast<uint8_t>(b); })) {
+    return DataLossError(name + " is corrupt: its sha256 " + ToHex(digest) +
+                         " does not match the stored checksum");
+  }
+  return OkStatus();
 }
 
 }  // namespace semmap::sqlite

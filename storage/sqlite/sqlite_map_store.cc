@@ -1,5 +1,6 @@
 // SqliteMapStore: opening, maps, sessions and maintenance. Row writes live in
-// sqlite_map_store_write.cc, trajectory/keyframe/link/blob reads in sqlite_map_store_read.cc.
+// sqlite_map_store_write.cc, trajectory/keyframe/link/blob reads in sqlite_map_store_read.cc,
+// object types, observations and instances in sqlite_map_store_objects.cc.
 #include "storage/sqlite/sqlite_map_store.h"
 
 #include <cmath>

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,28 @@ class SqliteMapStore final : public MapStore {
   // Also moves the frames (trajectory rows) of those keyframes, so a keyframe has one pose.
   Status UpdateKeyframePoses(
       const std::vector<std::pair<int64_t, Eigen::Isometry3d>>& T_world_keyframe) override;
+
+  // Objects (sqlite_map_store_objects.cc). Labels follow ValidateName's rules. Unknown map ids
+  // are NOT_FOUND everywhere; a type or instance naming a type that belongs to another map is
+  // INVALID_ARGUMENT.
+  StatusOr<ObjectType> CreateObjectType(const ObjectType& type) override;
+  // Ordered by label, the global type before map-scoped ones, those by map name.
+  StatusOr<std::vector<ObjectType>> ListObjectTypes(std::optional<int64_t> map_id,
+                                                    bool with_views) override;
+  Status RemoveObjectType(const std::string& label, std::optional<int64_t> map_id) override;
+  // Ordered by keyframe id (storage order), then observation id.
+  StatusOr<std::vector<ObjectObservation>> ListObjectObservations(int64_t map_id) override;
+  // Ordered by map name, label, confidence (highest first), then id. Session ids whose session
+  // is no longer stored are left out of session_ids and sessions alike.
+  StatusOr<std::vector<ObjectInstance>> FindObjectInstances(std::optional<int64_t> map_id,
+                                                            const std::string& label) override;
+  // INVALID_ARGUMENT for a negative or non-finite radius or a non-finite centre. Ties in
+  // distance are ordered by id.
+  StatusOr<std::vector<ObjectInstance>> ObjectInstancesNear(int64_t map_id,
+                                                            const Eigen::Vector3d& centre,
+                                                            double radius_m,
+                                                            const std::string& label) override;
+
   StatusOr<MapBlob> GetBlob(int64_t map_id, const std::string& kind) override;
   // UNAVAILABLE when a reader kept the WAL from being fully checkpointed.
   Status Checkpoint() override;
@@ -79,6 +102,14 @@ class SqliteMapStore final : public MapStore {
   Status WriteKeyframeFeatures(int64_t keyframe_id, const KeyframeRecord& keyframe);
   Status ApplyPoseUpdate(const PoseUpdate& update);
   Status ReadKeyframeFeatures(KeyframeRecord& keyframe);
+  // Observations and instances (sqlite_map_store_objects.cc).
+  Status WriteObservation(const ObjectObservation& observation);
+  Status ReplaceInstances(int64_t map_id, const std::vector<ObjectInstance>& instances);
+  // The label of a type usable in `map_id` (global or that map's own).
+  StatusOr<std::string> TypeLabelInMap(int64_t type_id, int64_t map_id);
+  Status ReadObjectViews(ObjectType& type);
+  // Resolves session_ids to names (ids whose session is gone are dropped).
+  Status FillSessionNames(std::vector<ObjectInstance>& instances);
   // The keyframe a link end names, checked to belong to `map_id`.
   StatusOr<int64_t> ResolveLinkEnd(int64_t map_id, int64_t keyframe_id, int64_t session_id,
                                    int64_t seq, const char* end);

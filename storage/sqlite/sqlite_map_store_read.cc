@@ -1,7 +1,5 @@
 // SqliteMapStore: trajectory, keyframe, link and blob reads.
-#include <algorithm>
 
-#include "common/sha256.h"
 #include "storage/sqlite/row_codec.h"
 #include "storage/sqlite/sqlite_map_store.h"
 
@@ -35,24 +33,6 @@ StatusOr<std::vector<TrajectoryPose>> SqliteMapStore::GetTrajectory(int64_t sess
 }
 
 namespace {
-
-// Length and SHA-256 stored beside a blob: a truncated or altered value (disk error, manual edit)
-// is DATA_LOSS instead of reaching a parser.
-Status VerifyChecksummed(const std::string& name, const std::string& data, int64_t length,
-                         const std::string& stored_digest) {
-  if (static_cast<int64_t>(data.size()) != length) {
-    return DataLossError(name + " is corrupt: stored length " + std::to_string(length) + ", read " +
-                         std::to_string(data.size()) + " bytes");
-  }
-  const Sha256Digest digest = Sha256(data);
-  if (stored_digest.size() != digest.size() ||
-      !std::equal(digest.begin(), digest.end(), stored_digest.begin(),
-                  [](uint8_t a, char b) { return a == static_cast<uint8_t>(b); })) {
-    return DataLossError(name + " is corrupt: its sha256 " + ToHex(digest) +
-                         " does not match the stored checksum");
-  }
-  return OkStatus();
-}
 
 // Columns 0..13 of the keyframe queries below; 14 and 15 are the image bytes when selected.
 KeyframeRecord KeyframeFromRow(const sqlite::Statement& stmt, bool with_images) {
@@ -96,8 +76,9 @@ Status SqliteMapStore::ReadKeyframeFeatures(KeyframeRecord& kf) {
   SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
   if (!row) return OkStatus();  // a keyframe without features (e.g. KNOWN_POSES)
   std::string data = stmt->ColumnBlob(1);
-  SEMMAP_RETURN_IF_ERROR(VerifyChecksummed("features of keyframe id " + std::to_string(kf.id), data,
-                                           stmt->ColumnInt64(2), stmt->ColumnBlob(3)));
+  SEMMAP_RETURN_IF_ERROR(
+      sqlite::VerifyChecksummed("features of keyframe id " + std::to_string(kf.id), data,
+                                stmt->ColumnInt64(2), stmt->ColumnBlob(3)));
   kf.features_format = stmt->ColumnText(0);
   kf.features = std::move(data);
   return OkStatus();
@@ -184,7 +165,7 @@ StatusOr<MapBlob> SqliteMapStore::GetBlob(int64_t map_id, const std::string& kin
   blob.data = stmt->ColumnBlob(0);
   blob.updated_unix_ns = stmt->ColumnInt64(3);
   SEMMAP_RETURN_IF_ERROR(
-      VerifyChecksummed(name, blob.data, stmt->ColumnInt64(1), stmt->ColumnBlob(2)));
+      sqlite::VerifyChecksummed(name, blob.data, stmt->ColumnInt64(1), stmt->ColumnBlob(2)));
   return blob;
 }
 

@@ -51,6 +51,16 @@ StatusOr<WriteResult> SqliteMapStore::Write(const WriteBatch& batch) {
         ApplyPoseUpdate(update).WithContext("pose update of seq " + std::to_string(update.seq) +
                                             " of session " + std::to_string(update.session_id)));
   }
+  // After keyframes (an observation may name one of this batch), instances after observations.
+  for (size_t i = 0; i < batch.observations.size(); ++i) {
+    SEMMAP_RETURN_IF_ERROR(WriteObservation(batch.observations[i])
+                               .WithContext("object observation " + std::to_string(i)));
+  }
+  for (const auto& [map_id, instances] : batch.instances) {
+    SEMMAP_RETURN_IF_ERROR(
+        ReplaceInstances(map_id, instances)
+            .WithContext("object instances of map id " + std::to_string(map_id)));
+  }
   SEMMAP_RETURN_IF_ERROR(transaction.Commit());
   return result;
 }

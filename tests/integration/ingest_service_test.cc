@@ -280,23 +280,33 @@ TEST_F(IngestServiceTest, OversizeFramesAreResourceExhausted) {
             StatusCode::kResourceExhausted);
 }
 
+ExportRequest Export(const std::string& map, const std::string& format,
+                     const std::string& session) {
+  ExportRequest request;
+  request.map = map;
+  request.format = format;
+  request.session = session;
+  return request;
+}
+
 TEST_F(IngestServiceTest, UnknownMapOrSessionIsNotFound) {
   EXPECT_EQ(client_->ListSessions("nope").status().code(), StatusCode::kNotFound);
   EXPECT_EQ(client_->GetTrajectory("nope", "x", false).status().code(), StatusCode::kNotFound);
   ASSERT_TRUE(Stream(KnownPosesStart("lab", "a"), 1).ok());
   EXPECT_EQ(client_->GetTrajectory("lab", "nope", false).status().code(), StatusCode::kNotFound);
-  EXPECT_EQ(client_->ExportMap({"nope", "json", ""}).status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(client_->ExportMap(Export("nope", "json", "")).status().code(), StatusCode::kNotFound);
 }
 
 TEST_F(IngestServiceTest, ExportsAreChecksummed) {
   ASSERT_TRUE(Stream(KnownPosesStart("lab", "a"), 5).ok());
-  auto tum = client_->ExportMap({"lab", "tum", ""});
+  auto tum = client_->ExportMap(Export("lab", "tum", ""));
   ASSERT_TRUE(tum.ok()) << tum.status().ToString();
   EXPECT_EQ(std::count(tum->bytes.begin(), tum->bytes.end(), '\n'), 2 + 5);
-  auto json = client_->ExportMap({"lab", "json", "a"});
+  auto json = client_->ExportMap(Export("lab", "json", "a"));
   ASSERT_TRUE(json.ok()) << json.status().ToString();
   EXPECT_NE(json->bytes.find("\"keyframes\""), std::string::npos);
-  EXPECT_EQ(client_->ExportMap({"lab", "obj", ""}).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(client_->ExportMap(Export("lab", "obj", "")).status().code(),
+            StatusCode::kInvalidArgument);
 }
 
 TEST_F(IngestServiceTest, DataSurvivesRestart) {

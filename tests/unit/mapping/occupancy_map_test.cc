@@ -1,15 +1,23 @@
 // OccupancyMap: known answers from the synthetic room (walls x = +-3, y = +-2.5, shelf front
-// at x = -2.55), loop-closure rebuilds, .ot round trips and damaged bytes.
+// at x = -2.55), voxel colours, loop-closure rebuilds, .ot round trips (ColorOcTree and plain
+// OcTree), .bt export and damaged bytes.
 #include "server/mapping/occupancy_map.h"
 
 #include <gtest/gtest.h>
+#include <octomap/ColorOcTree.h>  // inner colours as OctoMap computes them
+#include <octomap/OcTree.h>       // plain OcTree .ot input and .bt read-back
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
+#include <memory>
 #include <random>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -89,6 +97,54 @@ std::vector<VoxelKey> Keys(const OccupancyMap& map) {
     keys.emplace_back(v.centre.x(), v.centre.y(), v.centre.z(), v.size, v.log_odds);
   }
   return keys;
+}
+
+using ColourKey = std::tuple<double, double, double, double, float, std::array<uint8_t, 3>>;
+std::vector<ColourKey> ColourKeys(const OccupancyMap& map) {
+  std::vector<ColourKey> keys;
+  for (const OccupancyMap::Voxel& v : map.OccupiedVoxels()) {
+    keys.emplace_back(v.centre.x(), v.centre.y(), v.centre.z(), v.size, v.log_odds, v.rgb);
+  }
+  return keys;
+}
+
+constexpr std::array<uint8_t, 3> kWhite = {255, 255, 255};
+
+int MaxChannelDiff(const std::array<uint8_t, 3>& a, const std::array<uint8_t, 3>& b) {
+  int d = 0;
+  for (int i = 0; i < 3; ++i) d = std::max(d, std::abs(int{a[i]} - int{b[i]}));
+  return d;
+}
+
+// Per leaf voxel (OctoMap's key: floor(coordinate / resolution) of the float world point, as
+// OccupancyMap::Insert computes it): the sum of the RGB colours of the points in it.
+struct VoxelColours {
+  std::array<double, 3> sum{};
+  int n = 0;
+  std::array<uint8_t, 3> Mean() const {
+    std::array<uint8_t, 3> m{};
+    for (int i = 0; i < 3; ++i) m[i] = static_cast<uint8_t>(std::lround(sum[i] / n));
+    return m;
+  }
+};
+using VoxelIndex = std::array<int, 3>;
+void AddPoints(const KeyframeCloud& cloud, const Eigen::Isometry3d& T, double resolution,
+               std::map<VoxelIndex, VoxelColours>& voxels) {
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  const double factor = 1.0 / resolution;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f w = R * cloud.points[i] + t;
+    const VoxelIndex index = {static_cast<int>(std::floor(factor * w.x())),
+                              static_cast<int>(std::floor(factor * w.y())),
+                              static_cast<int>(std::floor(factor * w.z()))};
+    VoxelColours& v = voxels[index];
+    for (int c = 0; c < 3; ++c) v.sum[c] += cloud.colours[i][2 - c];  // BGR -> RGB
+    ++v.n;
+  }
+}
+Eigen::Vector3d VoxelCentre(const VoxelIndex& index, double resolution) {
+  return (Eigen::Vector3d(index[0], index[1], index[2]).array() + 0.5) * resolution;
 }
 
 // A surface point at a voxel boundary lands on either side: occupied on one of them.
@@ -290,6 +346,273 @@ TEST_F(OccupancyMapRoomTest, OtRoundTripPreservesTreeAndLeavesLiveTreeAlone) {
   EXPECT_TRUE(back->Insert((*keyframes_)[0].cloud, (*keyframes_)[0].T_world_camera).ok());
 }
 
+TEST_F(OccupancyMapRoomTest, OtRoundTripPreservesColoursExactly) {
+  const std::vector<ColourKey> before = ColourKeys(*map_);
+  ASSERT_GT(before.size(), 1000U);
+  // Colour made it into the tree: almost every occupied voxel has one.
+  const auto coloured = std::count_if(before.begin(), before.end(),
+                                      [](const ColourKey& k) { return std::get<5>(k) != kWhite; });
+  EXPECT_GT(coloured, static_cast<std::ptrdiff_t>(before.size() * 99 / 100));
+  StatusOr<std::string> ot = map_->SerializeOt();
+  ASSERT_TRUE(ot.ok()) << ot.status().ToString();
+  EXPECT_NE(ot->find("\nid ColorOcTree\n"), std::string::npos);
+  StatusOr<OccupancyMap> back = OccupancyMap::DeserializeOt(*ot);
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(ColourKeys(*back), before);
+  EXPECT_EQ(ColourKeys(*map_), before);  // serialising left the live tree alone
+  for (const OccupancyMap::Voxel& v : back->OccupiedVoxels()) {
+    ASSERT_EQ(back->ColourAt(v.centre), v.rgb);
+    ASSERT_EQ(map_->ColourAt(v.centre), v.rgb);
+  }
+}
+
+// Insert() updates inner colours only above the voxels it recoloured; OctoMap's full
+// ColorOcTree::updateInnerOccupancy() on the saved tree gives the same inner nodes.
+TEST_F(OccupancyMapRoomTest, InnerColoursMatchOctomapsFullUpdate) {
+  StatusOr<std::string> ot = map_->SerializeOt();
+  ASSERT_TRUE(ot.ok());
+  std::istringstream in(*ot);
+  std::unique_ptr<octomap::AbstractOcTree> read(octomap::AbstractOcTree::read(in));
+  auto* tree = dynamic_cast<octomap::ColorOcTree*>(read.get());
+  ASSERT_NE(tree, nullptr);
+  std::istringstream in_again(*ot);
+  std::unique_ptr<octomap::AbstractOcTree> read_again(octomap::AbstractOcTree::read(in_again));
+  auto* full = dynamic_cast<octomap::ColorOcTree*>(read_again.get());
+  ASSERT_NE(full, nullptr);
+  full->updateInnerOccupancy();
+  size_t inner = 0, differ = 0;
+  for (auto a = tree->begin_tree(), b = full->begin_tree(), end = tree->end_tree(); a != end;
+       ++a, ++b) {
+    ASSERT_EQ(a.getKey(), b.getKey());
+    ASSERT_EQ(a.getDepth(), b.getDepth());
+    ASSERT_EQ(a->getValue(), b->getValue());  // occupancy was current already
+    if (a.isLeaf()) {
+      ASSERT_EQ(a->getColor(), b->getColor());
+      continue;
+    }
+    ++inner;
+    differ += a->getColor() != b->getColor() ? 1 : 0;
+  }
+  ASSERT_GT(inner, 10000U);
+  // Equal here; pruning free space may leave an occasional parent with its earlier mean.
+  EXPECT_LE(differ, inner / 1000) << differ << " of " << inner << " inner nodes";
+}
+
+TEST_F(OccupancyMapRoomTest, BtReadsBackAsPlainOcTree) {
+  StatusOr<std::string> bt = map_->SerializeBt();
+  ASSERT_TRUE(bt.ok()) << bt.status().ToString();
+  EXPECT_NE(bt->find("\nid OcTree\n"), std::string::npos);
+  octomap::OcTree tree(0.1);
+  std::istringstream in(*bt);
+  ASSERT_TRUE(tree.readBinary(in));
+  EXPECT_DOUBLE_EQ(tree.getResolution(), 0.05);
+  ASSERT_GT(tree.size(), 0U);
+  EXPECT_LT(tree.size(), map_->size());  // pruned
+  // Max-likelihood: the same occupied / free split as the live map.
+  const std::vector<OccupancyMap::Voxel> occupied = map_->OccupiedVoxels();
+  for (const OccupancyMap::Voxel& v : occupied) {
+    const octomap::OcTreeNode* node = tree.search(v.centre.x(), v.centre.y(), v.centre.z());
+    ASSERT_NE(node, nullptr) << v.centre.transpose();
+    ASSERT_TRUE(tree.isNodeOccupied(node)) << v.centre.transpose();
+  }
+  size_t bt_occupied = 0;
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    const octomap::point3d c = it.getCoordinate();
+    EXPECT_EQ(map_->Occupancy({c.x(), c.y(), c.z()}), VoxelState::kOccupied);
+    ++bt_occupied;
+  }
+  EXPECT_GT(bt_occupied, 0U);
+  EXPECT_LE(bt_occupied, occupied.size());  // pruning can merge occupied leaves
+  // Half way along the ray through the first keyframe's centre pixel.
+  const Keyframe& k = (*keyframes_)[0];
+  const CameraCalibration& c = SharedRenderer().camera();
+  const int u = c.width / 2, v = c.height / 2;
+  const double z = k.frame.depth.at<uint16_t>(v, u) / synth::kDepthScale;
+  ASSERT_GT(z, 1.0);
+  const Eigen::Vector3d free_point =
+      k.T_world_camera * (0.5 * z * Eigen::Vector3d((u - c.cx) / c.fx, (v - c.cy) / c.fy, 1.0));
+  ASSERT_EQ(map_->Occupancy(free_point), VoxelState::kFree);
+  const octomap::OcTreeNode* node = tree.search(free_point.x(), free_point.y(), free_point.z());
+  ASSERT_NE(node, nullptr);
+  EXPECT_FALSE(tree.isNodeOccupied(node));
+}
+
+// One keyframe facing the +x wall (x = 3) from 2.5 m: every wall voxel's colour is the mean
+// colour of the keyframe's points in it; seeing the same frame again keeps it.
+TEST(OccupancyMapColourTest, WallVoxelsGetTheMeanColourOfTheirPixels) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear().col(0) = -Eigen::Vector3d::UnitY();  // image right
+  T.linear().col(1) = -Eigen::Vector3d::UnitZ();  // image down
+  T.linear().col(2) = Eigen::Vector3d::UnitX();   // forward
+  T.translation() = Eigen::Vector3d(0.5, 1.0, 1.7);
+  const std::vector<Keyframe> keyframes = RenderKeyframes({T}, {});
+  ASSERT_EQ(keyframes.size(), 1U);
+  const KeyframeCloud& cloud = keyframes[0].cloud;
+  ASSERT_GT(cloud.size(), 10000U);
+  StatusOr<OccupancyMap> map = OccupancyMap::Create({});
+  ASSERT_TRUE(map.ok());
+  ASSERT_TRUE(map->Insert(cloud, T).ok());
+
+  std::map<VoxelIndex, VoxelColours> voxels;
+  AddPoints(cloud, T, map->resolution(), voxels);
+  // Returns how many wall voxels have exactly the rounded mean.
+  auto check_wall = [&](const char* when) {
+    int wall = 0, uncoloured = 0, exact = 0, close = 0, grey_ish = 0;
+    for (const auto& [index, colours] : voxels) {
+      const Eigen::Vector3d centre = VoxelCentre(index, map->resolution());
+      if (std::abs(centre.x() - 3.0) > 0.1 || centre.z() < 0.9 || centre.z() > 2.6) continue;
+      ++wall;
+      const std::optional<std::array<uint8_t, 3>> rgb = map->ColourAt(centre);
+      if (!rgb.has_value()) {
+        ++uncoloured;
+        continue;
+      }
+      const std::array<uint8_t, 3> mean = colours.Mean();
+      const int diff = MaxChannelDiff(*rgb, mean);
+      exact += diff == 0 ? 1 : 0;
+      close += diff <= 1 ? 1 : 0;  // OctoMap's (old + new) / 2 truncates
+      grey_ish += MaxChannelDiff(mean, {mean[0], mean[0], mean[0]}) <= 3 ? 1 : 0;
+    }
+    EXPECT_GT(wall, 300) << when;
+    EXPECT_EQ(uncoloured, 0) << when << ": wall voxels not occupied";
+    EXPECT_GE(close, wall * 99 / 100) << when << ": " << close << " of " << wall;
+    EXPECT_LT(grey_ish, wall / 2) << "the wall has a hue: a channel mix-up would show";
+    return exact;
+  };
+  EXPECT_GT(check_wall("after one insertion"), 0);
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(map->Insert(cloud, T).ok());
+  check_wall("after four insertions");
+
+  // A second view from nearby, into a fresh map after the first: voxels both views saw get
+  // OctoMap's average (first + second) / 2, the others their one view's mean.
+  Eigen::Isometry3d T2 = T;
+  T2.translation() += Eigen::Vector3d(0.2, -0.15, -0.1);
+  const std::vector<Keyframe> second = RenderKeyframes({T2}, {});
+  ASSERT_EQ(second.size(), 1U);
+  StatusOr<OccupancyMap> both = OccupancyMap::Create({});
+  ASSERT_TRUE(both.ok());
+  ASSERT_TRUE(both->Insert(cloud, T).ok());
+  ASSERT_TRUE(both->Insert(second[0].cloud, T2).ok());
+  std::map<VoxelIndex, VoxelColours> voxels2;
+  AddPoints(second[0].cloud, T2, both->resolution(), voxels2);
+  int wall = 0, seen_twice = 0, close = 0;
+  for (const auto& [index, colours2] : voxels2) {
+    const Eigen::Vector3d centre = VoxelCentre(index, both->resolution());
+    if (std::abs(centre.x() - 3.0) > 0.1 || centre.z() < 0.9 || centre.z() > 2.6) continue;
+    ++wall;
+    std::array<uint8_t, 3> expected = colours2.Mean();
+    if (const auto first = voxels.find(index); first != voxels.end()) {
+      ++seen_twice;
+      const std::array<uint8_t, 3> m1 = first->second.Mean();
+      for (int c = 0; c < 3; ++c) expected[c] = static_cast<uint8_t>((m1[c] + expected[c]) / 2);
+    }
+    const std::optional<std::array<uint8_t, 3>> rgb = both->ColourAt(centre);
+    close += rgb.has_value() && MaxChannelDiff(*rgb, expected) <= 1 ? 1 : 0;
+  }
+  EXPECT_GT(seen_twice, 300);
+  EXPECT_GE(close, wall * 99 / 100) << close << " of " << wall;
+}
+
+TEST(OccupancyMapColourTest, KeyframeMeanThenAveragedAcrossKeyframes) {
+  StatusOr<OccupancyMap> map = OccupancyMap::Create({});
+  ASSERT_TRUE(map.ok());
+  // Two points in the voxel [0, 0.05) x [0, 0.05) x [1, 1.05), BGR colours.
+  KeyframeCloud cloud;
+  cloud.points = {{0.01F, 0.01F, 1.01F}, {0.03F, 0.04F, 1.02F}};
+  cloud.colours = {{10, 20, 30}, {30, 40, 51}};
+  ASSERT_TRUE(map->Insert(cloud, Eigen::Isometry3d::Identity()).ok());
+  const Eigen::Vector3d p(0.02, 0.02, 1.02);
+  // The keyframe's mean in RGB, rounded: (40.5, 30, 20).
+  EXPECT_EQ(map->ColourAt(p), (std::array<uint8_t, 3>{41, 30, 20}));
+  ASSERT_EQ(map->OccupiedVoxels().size(), 1U);
+  EXPECT_EQ(map->OccupiedVoxels()[0].rgb, (std::array<uint8_t, 3>{41, 30, 20}));
+  // A second keyframe sees it black: averaged with the previous colour.
+  cloud.colours = {{0, 0, 0}, {0, 0, 0}};
+  ASSERT_TRUE(map->Insert(cloud, Eigen::Isometry3d::Identity()).ok());
+  EXPECT_EQ(map->ColourAt(p), (std::array<uint8_t, 3>{20, 15, 10}));
+  // Free, unknown and invalid points have no colour.
+  EXPECT_EQ(map->Occupancy({0.02, 0.02, 0.5}), VoxelState::kFree);
+  EXPECT_EQ(map->ColourAt({0.02, 0.02, 0.5}), std::nullopt);
+  EXPECT_EQ(map->ColourAt({1.0, 1.0, 1.0}), std::nullopt);
+  EXPECT_EQ(map->ColourAt({NAN, 0.0, 1.0}), std::nullopt);
+  EXPECT_EQ(map->ColourAt({1e6, 0.0, 1.0}), std::nullopt);
+  // Colours must match the points one to one.
+  cloud.colours.pop_back();
+  EXPECT_EQ(map->Insert(cloud, Eigen::Isometry3d::Identity()).code(), StatusCode::kInvalidArgument);
+  // An empty cloud into an empty map (no root yet) is fine.
+  StatusOr<OccupancyMap> empty = OccupancyMap::Create({});
+  ASSERT_TRUE(empty.ok());
+  EXPECT_TRUE(empty->Insert(KeyframeCloud{}, Eigen::Isometry3d::Identity()).ok());
+  EXPECT_EQ(empty->size(), 0U);
+  EXPECT_TRUE(empty->SerializeBt().ok());
+}
+
+// A plain OcTree .ot (as older maps and other tools write) loads with the same occupancy as a
+// map built from the same keyframe, uncoloured; damaged ones are still errors.
+TEST(OccupancyMapTest, PlainOcTreeOtLoadsUncoloured) {
+  const std::vector<Keyframe> keyframes = RenderKeyframes(KeyframePoses(60), {});
+  ASSERT_EQ(keyframes.size(), 2U);
+  const OccupancyMapOptions options;
+  octomap::OcTree plain(options.resolution_m);
+  for (const Keyframe& k : keyframes) {
+    octomap::Pointcloud scan;
+    const Eigen::Matrix3f R = k.T_world_camera.linear().cast<float>();
+    const Eigen::Vector3f t = k.T_world_camera.translation().cast<float>();
+    for (const Eigen::Vector3f& p : k.cloud.points) {
+      if (p.squaredNorm() > options.max_range_m * options.max_range_m) continue;  // as Insert
+      const Eigen::Vector3f w = R * p + t;
+      scan.push_back(w.x(), w.y(), w.z());
+    }
+    plain.insertPointCloud(scan, octomap::point3d(t.x(), t.y(), t.z()), options.max_range_m,
+                           /*lazy_eval=*/false, options.discretize);
+  }
+  std::ostringstream out;
+  ASSERT_TRUE(plain.write(out));
+  const std::string ot = out.str();
+  ASSERT_NE(ot.find("\nid OcTree\n"), std::string::npos);
+
+  StatusOr<OccupancyMap> loaded = OccupancyMap::DeserializeOt(ot);
+  ASSERT_TRUE(loaded.ok()) << loaded.status().ToString();
+  StatusOr<OccupancyMap> built =
+      OccupancyMap::Build(AtPoses(keyframes, Eigen::Isometry3d::Identity()), options);
+  ASSERT_TRUE(built.ok());
+  EXPECT_EQ(loaded->size(), plain.size());
+  EXPECT_EQ(loaded->size(), built->size());
+  EXPECT_EQ(Keys(*loaded), Keys(*built));  // centres, sizes and log-odds
+  const std::vector<OccupancyMap::Voxel> voxels = loaded->OccupiedVoxels();
+  ASSERT_GT(voxels.size(), 1000U);
+  for (const OccupancyMap::Voxel& v : voxels) {
+    ASSERT_EQ(v.rgb, kWhite);
+    ASSERT_EQ(loaded->ColourAt(v.centre), kWhite);
+  }
+  // It saves as a ColorOcTree, round trips, and takes colour from new keyframes.
+  StatusOr<std::string> colour_ot = loaded->SerializeOt();
+  ASSERT_TRUE(colour_ot.ok());
+  EXPECT_NE(colour_ot->find("\nid ColorOcTree\n"), std::string::npos);
+  StatusOr<OccupancyMap> again = OccupancyMap::DeserializeOt(*colour_ot);
+  ASSERT_TRUE(again.ok()) << again.status().ToString();
+  EXPECT_EQ(ColourKeys(*again), ColourKeys(*loaded));
+  ASSERT_TRUE(again->Insert(keyframes[0].cloud, keyframes[0].T_world_camera).ok());
+  const std::vector<OccupancyMap::Voxel> recoloured = again->OccupiedVoxels();
+  EXPECT_GT(std::count_if(recoloured.begin(), recoloured.end(),
+                          [](const OccupancyMap::Voxel& v) { return v.rgb != kWhite; }),
+            static_cast<std::ptrdiff_t>(recoloured.size() / 2));
+
+  // Damaged plain .ot bytes: truncated anywhere, or the root's child bits flipped.
+  const size_t data = ot.find("\ndata\n") + 6;
+  for (size_t n = data; n < ot.size(); n += 101) {
+    EXPECT_EQ(OccupancyMap::DeserializeOt(std::string_view(ot).substr(0, n)).status().code(),
+              StatusCode::kDataLoss)
+        << n;
+  }
+  for (int bit = 0; bit < 8; ++bit) {
+    std::string bad = ot;
+    bad[data + 4] = static_cast<char>(bad[data + 4] ^ (1 << bit));
+    EXPECT_EQ(OccupancyMap::DeserializeOt(bad).status().code(), StatusCode::kDataLoss) << bit;
+  }
+}
+
 TEST(OccupancyMapTest, EmptyMapRoundTrips) {
   StatusOr<OccupancyMap> map = OccupancyMap::Create({});
   ASSERT_TRUE(map.ok());
@@ -359,8 +682,10 @@ TEST_F(DamagedOtTest, BitFlipsAreErrorsOrValidTreesNeverCrashes) {
   const std::string& ot = *ot_;
   const size_t data = ot.find("\ndata\n") + 6;
   ASSERT_NE(data, std::string::npos);
-  // Structure damage that must be caught: the header, the root's child bits.
-  for (size_t byte : {size_t{0}, size_t{3}, ot.find("size ") + 5, ot.find("id ") + 3, data + 4}) {
+  ASSERT_NE(ot.find("\nid ColorOcTree\n"), std::string::npos);
+  // Structure damage that must be caught: the header, the root's child bits (after the
+  // root's log-odds and colour).
+  for (size_t byte : {size_t{0}, size_t{3}, ot.find("size ") + 5, ot.find("id ") + 3, data + 7}) {
     for (int bit = 0; bit < 8; ++bit) {
       std::string bad = ot;
       bad[byte] = static_cast<char>(bad[byte] ^ (1 << bit));
@@ -399,11 +724,32 @@ TEST_F(DamagedOtTest, GarbageIsAnError) {
   std::string deep;
   for (int i = 0; i < 1000; ++i) deep += std::string("\0\0\0\0\x01", 5);
   EXPECT_EQ(OccupancyMap::DeserializeOt(header + deep).status().code(), StatusCode::kDataLoss);
-  EXPECT_EQ(OccupancyMap::DeserializeOt("# Octomap OcTree file\nid ColorOcTree\nsize 0\nres "
-                                        "0.05\ndata\n")
-                .status()
-                .code(),
-            StatusCode::kInvalidArgument);
+  // The same over ColorOcTree records (8 bytes: log-odds, r, g, b, child bits).
+  const std::string colour_header =
+      "# Octomap OcTree file\nid ColorOcTree\nsize 1000\nres 0.05\ndata\n";
+  EXPECT_EQ(OccupancyMap::DeserializeOt(colour_header + std::string(8000, '\xff')).status().code(),
+            StatusCode::kDataLoss);
+  std::string deep_colour;
+  for (int i = 0; i < 1000; ++i) deep_colour += std::string("\0\0\0\0\x10\x20\x30\x01", 8);
+  EXPECT_EQ(OccupancyMap::DeserializeOt(colour_header + deep_colour).status().code(),
+            StatusCode::kDataLoss);
+  // OcTree records under a ColorOcTree header and vice versa: the sizes do not add up.
+  EXPECT_EQ(OccupancyMap::DeserializeOt(colour_header + deep).status().code(),
+            StatusCode::kDataLoss);
+  EXPECT_EQ(OccupancyMap::DeserializeOt(header + deep_colour).status().code(),
+            StatusCode::kDataLoss);
+  // Other OctoMap tree types are not supported.
+  for (const char* id : {"OcTreeStamped", "CountingOcTree", "colorOcTree"}) {
+    EXPECT_EQ(OccupancyMap::DeserializeOt(std::string("# Octomap OcTree file\nid ") + id +
+                                          "\nsize 0\nres 0.05\ndata\n")
+                  .status()
+                  .code(),
+              StatusCode::kInvalidArgument)
+        << id;
+  }
+  EXPECT_TRUE(
+      OccupancyMap::DeserializeOt("# Octomap OcTree file\nid ColorOcTree\nsize 0\nres 0.05\ndata\n")
+          .ok());
   EXPECT_EQ(OccupancyMap::DeserializeOt("# Octomap OcTree file\nid OcTree\nsize 0\nres 1e9\ndata\n")
                 .status()
                 .code(),

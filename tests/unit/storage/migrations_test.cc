@@ -130,5 +130,66 @@ TEST(MigrationsTest, StoreOpenMigratesOnceAndRefusesNewerSchema) {
   EXPECT_NE(refused.status().message().find(path), std::string::npos);
 }
 
+TEST(MigrationsTest, Version2DatabaseUpgradesToObjectsKeepingItsData) {
+  TempDir dir;
+  const std::string path = dir.File("semmap.db");
+  {
+    // What a v2 semmapd left behind: a map, a session, a keyframe with features.
+    auto db = Open(path);
+    ASSERT_NE(db, nullptr);
+    ASSERT_OK(ApplyMigrations(*db, SchemaMigrations().first(2)));
+    ASSERT_OK(db->Exec(
+        "INSERT INTO maps VALUES (1, 'lab', 5);"
+        "INSERT INTO sessions (id, map_id, name, mode, width, height, fx, fy, cx, cy, k1, k2, p1,"
+        " p2, k3, depth_scale, started_ns) VALUES (1, 1, 's', 1, 640, 480, 525, 525, 319.5, 239.5,"
+        " 0, 0, 0, 0, 0, 5000, 7);"
+        "INSERT INTO keyframes VALUES (1, 1, 4, 99, 1, 2, 3, 0, 0, 0, 1, 'jpeg', x'01', 'png',"
+        " x'02', 5000);"
+        "INSERT INTO keyframe_features VALUES (1, 'f1', x'616263', 3,"
+        " x'ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad');"));
+    EXPECT_EQ(*ReadSchemaVersion(*db), 2);
+  }
+  auto store = SqliteMapStore::Open(path, {});
+  ASSERT_OK(store.status());
+  SqliteMapStore& s = **store;
+  EXPECT_GE(LatestSchemaVersion(), 3);
+  EXPECT_EQ(*ReadSchemaVersion(s.connection()), LatestSchemaVersion());
+  auto map = s.GetMap("lab");
+  ASSERT_OK(map.status());
+  EXPECT_EQ(map->keyframe_count, 1);
+  auto keyframes = s.ListKeyframeFeatures(1);
+  ASSERT_OK(keyframes.status());
+  ASSERT_EQ(keyframes->size(), 1u);
+  EXPECT_EQ((*keyframes)[0].features, "abc");  // checksum still verifies
+  EXPECT_EQ((*keyframes)[0].T_world_camera.translation(), Eigen::Vector3d(1, 2, 3));
+
+  // The new tables work against the old rows.
+  ObjectType type;
+  type.label = "mug";
+  type.map_id = map->id;
+  ObjectView view;
+  view.image = {"png", "img"};
+  view.features_format = "f1";
+  view.features = "feat";
+  type.views = {view};
+  auto created = s.CreateObjectType(type);
+  ASSERT_OK(created.status());
+  WriteBatch batch;
+  ObjectObservation o;
+  o.map_id = map->id;
+  o.type_id = created->id;
+  o.session_id = 1;
+  o.seq = 4;
+  batch.observations = {o};
+  ObjectInstance instance;
+  instance.type_id = created->id;
+  instance.session_ids = {1};
+  batch.instances.emplace_back(map->id, std::vector<ObjectInstance>{instance});
+  ASSERT_OK(s.Write(batch).status());
+  EXPECT_EQ((*s.ListObjectObservations(map->id))[0].keyframe_id, 1);
+  EXPECT_EQ((*s.FindObjectInstances(map->id, "mug"))[0].sessions, (std::vector<std::string>{"s"}));
+  EXPECT_OK(s.IntegrityCheck());
+}
+
 }  // namespace
 }  // namespace semmap::sqlite

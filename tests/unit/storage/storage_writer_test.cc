@@ -70,6 +70,27 @@ class RecordingStore final : public MapStore {
       const std::vector<std::pair<int64_t, Eigen::Isometry3d>>& poses) override {
     return inner_->UpdateKeyframePoses(poses);
   }
+  // The writer never calls these itself; only what a test forwards would reach them.
+  StatusOr<ObjectType> CreateObjectType(const ObjectType&) override {
+    return UnimplementedError("RecordingStore::CreateObjectType");
+  }
+  StatusOr<std::vector<ObjectType>> ListObjectTypes(std::optional<int64_t>, bool) override {
+    return UnimplementedError("RecordingStore::ListObjectTypes");
+  }
+  Status RemoveObjectType(const std::string&, std::optional<int64_t>) override {
+    return UnimplementedError("RecordingStore::RemoveObjectType");
+  }
+  StatusOr<std::vector<ObjectObservation>> ListObjectObservations(int64_t) override {
+    return UnimplementedError("RecordingStore::ListObjectObservations");
+  }
+  StatusOr<std::vector<ObjectInstance>> FindObjectInstances(std::optional<int64_t>,
+                                                            const std::string&) override {
+    return UnimplementedError("RecordingStore::FindObjectInstances");
+  }
+  StatusOr<std::vector<ObjectInstance>> ObjectInstancesNear(int64_t, const Eigen::Vector3d&, double,
+                                                            const std::string&) override {
+    return UnimplementedError("RecordingStore::ObjectInstancesNear");
+  }
   StatusOr<MapBlob> GetBlob(int64_t id, const std::string& kind) override {
     return inner_->GetBlob(id, kind);
   }
@@ -266,6 +287,57 @@ TEST_F(StorageWriterTest, BadBatchFailsAloneAfterMergedFailure) {
   // Merged attempt, then each batch alone.
   EXPECT_EQ(recording_->write_sizes(), (std::vector<size_t>{5, 2, 1, 2}));
   EXPECT_EQ(reader_->GetTrajectory(session_.id, false)->size(), 4u);
+}
+
+TEST_F(StorageWriterTest, ObjectsSurviveTheRetryAfterAMergedFailure) {
+  ObjectType type;
+  type.label = "mug";
+  ObjectView view;
+  view.image = {"png", "img"};
+  view.features_format = "f1";
+  view.features = "feat";
+  type.views = {view};
+  const ObjectType mug = *reader_->CreateObjectType(type);
+  const int64_t other_map = reader_->GetOrCreateMap("other")->id;
+  auto instances = [&](double x, int n) {
+    std::vector<ObjectInstance> list(static_cast<size_t>(n));
+    for (ObjectInstance& o : list) {
+      o.type_id = mug.id;
+      o.position = Eigen::Vector3d(x, 0, 0);
+    }
+    return list;
+  };
+  StartWriter();
+  Stall();
+  Outcomes outcomes;
+  WriteBatch first;
+  first.keyframes = {Keyframe(session_.id, 0)};
+  ObjectObservation o;
+  o.map_id = session_.map_id;
+  o.type_id = mug.id;
+  o.session_id = session_.id;
+  o.seq = 0;
+  first.observations = {o};
+  first.instances.emplace_back(session_.map_id, instances(1, 2));
+  first.instances.emplace_back(other_map, instances(5, 1));
+  ASSERT_OK(writer_->Submit(std::move(first), outcomes.For(0)));
+  ASSERT_OK(writer_->Submit(Frames(0, 1, /*session_id=*/99999), outcomes.For(1)));
+  WriteBatch third;
+  third.observations = {o, o};                                     // the first batch's keyframe
+  third.instances.emplace_back(session_.map_id, instances(2, 3));  // replaces the first's list
+  ASSERT_OK(writer_->Submit(std::move(third), outcomes.For(2)));
+  Release();
+  outcomes.WaitFor(3);
+  ASSERT_OK(writer_->Stop());
+  ASSERT_EQ(outcomes.size(), 3u);
+  EXPECT_OK(outcomes.calls[0].second);
+  EXPECT_EQ(outcomes.calls[1].second.code(), StatusCode::kNotFound);
+  EXPECT_OK(outcomes.calls[2].second);
+  EXPECT_EQ(reader_->ListObjectObservations(session_.map_id)->size(), 3u);
+  auto found = reader_->FindObjectInstances(session_.map_id, "");
+  ASSERT_EQ(found->size(), 3u);
+  EXPECT_EQ((*found)[0].position.x(), 2);
+  EXPECT_EQ(reader_->FindObjectInstances(other_map, "")->size(), 1u);
 }
 
 TEST_F(StorageWriterTest, StopDrainsEverythingAndCheckpoints) {

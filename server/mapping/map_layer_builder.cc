@@ -1,0 +1,318 @@
+#include "server/mapping/map_layer_builder.h"
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "common/time_util.h"
+#include "server/mapping/stored_keyframe_clouds.h"
+
+namespace semmap {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+bool MovedBeyond(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double max_translation_m,
+                 double max_rotation_rad) {
+  const Eigen::Isometry3d delta = a.inverse() * b;
+  return delta.translation().norm() > max_translation_m ||
+         Eigen::AngleAxisd(delta.rotation()).angle() > max_rotation_rad;
+}
+
+int64_t NowUnixNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+Status MapLayerOptions::Validate() const {
+  SEMMAP_RETURN_IF_ERROR(occupancy.Validate().WithContext("map layers"));
+  SEMMAP_RETURN_IF_ERROR(cloud.Validate().WithContext("map layers"));
+  if (queue_capacity < 1 || queue_capacity > 100000) {
+    return InvalidArgumentError("map layers: queue capacity must be in [1, 100000]");
+  }
+  if (!std::isfinite(persist_interval_s) || persist_interval_s < 0 || persist_interval_s > 3600) {
+    return InvalidArgumentError("map layers: persist interval must be in [0, 3600] s");
+  }
+  if (!(rebuild_min_translation_m >= 0) || !(rebuild_min_rotation_rad >= 0) ||
+      !std::isfinite(rebuild_min_translation_m) || !std::isfinite(rebuild_min_rotation_rad)) {
+    return InvalidArgumentError("map layers: rebuild thresholds must be finite and >= 0");
+  }
+  return OkStatus();
+}
+
+StatusOr<std::unique_ptr<MapLayerBuilder>> MapLayerBuilder::Start(int64_t map_id,
+                                                                  std::string map_name,
+                                                                  MapLayerOptions options,
+                                                                  StorageWriter* writer,
+                                                                  bool restore) {
+  SEMMAP_RETURN_IF_ERROR(options.Validate());
+  if (writer == nullptr) return InvalidArgumentError("map layers need a storage writer");
+  SEMMAP_ASSIGN_OR_RETURN(OccupancyMap occupancy, OccupancyMap::Create(options.occupancy));
+  std::unique_ptr<MapLayerBuilder> builder(new MapLayerBuilder(
+      map_id, std::move(map_name), std::move(options), writer, std::move(occupancy)));
+  builder->worker_ = std::thread([raw = builder.get(), restore] { raw->Run(restore); });
+  return builder;
+}
+
+MapLayerBuilder::MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerOptions options,
+                                 StorageWriter* writer, OccupancyMap occupancy)
+    : map_id_(map_id),
+      map_name_(std::move(map_name)),
+      options_(std::move(options)),
+      writer_(writer),
+      queue_(options_.queue_capacity),
+      occupancy_(std::move(occupancy)),
+      last_persist_(Clock::now()) {}
+
+MapLayerBuilder::~MapLayerBuilder() { Stop(); }
+
+void MapLayerBuilder::Stop() {
+  std::lock_guard stop_lock(stop_mutex_);
+  queue_.Shutdown();  // the worker still drains what was queued
+  if (worker_.joinable()) worker_.join();
+  std::unique_lock lock(mutex_);
+  writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
+}
+
+Status MapLayerBuilder::AddKeyframeImages(int64_t session_id, int64_t seq, DecodedDepth depth,
+                                          cv::Mat colour, const CameraCalibration& camera) {
+  KeyframeImages images{session_id, seq, std::move(depth), std::move(colour), camera};
+  if (!queue_.Push(std::move(images))) return UnavailableError("map layers stopped");
+  std::lock_guard lock(mutex_);
+  stats_.queue_high_water = std::max(stats_.queue_high_water, queue_.size());
+  return OkStatus();
+}
+
+Status MapLayerBuilder::SetKeyframePoses(std::vector<KeyframePose> poses, bool correction) {
+  if (!queue_.Push(PoseUpdate{std::move(poses), correction})) {
+    return UnavailableError("map layers stopped");
+  }
+  std::lock_guard lock(mutex_);
+  stats_.queue_high_water = std::max(stats_.queue_high_water, queue_.size());
+  return OkStatus();
+}
+
+Status MapLayerBuilder::Flush() {
+  auto done = std::make_shared<std::promise<Status>>();
+  std::future<Status> result = done->get_future();
+  if (!queue_.Push(FlushRequest{done})) return UnavailableError("map layers stopped");
+  return result.get();
+}
+
+MapLayerStats MapLayerBuilder::stats() const {
+  std::lock_guard lock(mutex_);
+  MapLayerStats out = stats_;
+  out.insert_ms = insert_ms_.Summarize();
+  out.rebuild_ms = rebuild_ms_.Summarize();
+  out.persist_ms = persist_ms_.Summarize();
+  return out;
+}
+
+void MapLayerBuilder::RecordError(const Status& status) {
+  std::fprintf(stderr, "semmapd: map '%s' layers: %s\n", map_name_.c_str(),
+               status.ToString().c_str());
+  std::lock_guard lock(mutex_);
+  if (error_.ok()) error_ = status.WithContext("map layers");
+}
+
+void MapLayerBuilder::Run(bool restore) {
+  if (restore) Restore();
+  const auto interval = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(options_.persist_interval_s));
+  for (;;) {
+    std::optional<Event> event = queue_.TryPop();
+    if (!event) {
+      // Idle: catch up on the deferred work, then wait for events (or the next persist).
+      if (rebuild_needed_) Rebuild();
+      if (dirty_ && Clock::now() >= last_persist_ + interval) Persist();
+      event = dirty_ ? queue_.PopFor(last_persist_ + interval - Clock::now()) : queue_.Pop();
+      if (!event) {
+        if (queue_.is_shutdown() && queue_.size() == 0) break;
+        continue;
+      }
+    }
+    if (auto* images = std::get_if<KeyframeImages>(&*event)) {
+      Handle(*images);
+    } else if (auto* update = std::get_if<PoseUpdate>(&*event)) {
+      Handle(*update);
+    } else {
+      const auto& flush = std::get<FlushRequest>(*event);
+      if (rebuild_needed_) Rebuild();
+      if (dirty_) Persist();
+      std::unique_lock lock(mutex_);
+      writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
+      flush.done->set_value(error_);
+      error_ = OkStatus();
+    }
+  }
+  if (rebuild_needed_) Rebuild();
+  if (dirty_) Persist();
+}
+
+void MapLayerBuilder::Restore() {
+  std::vector<StoredKeyframeCloud> stored;
+  const Status status = writer_->RunSync([&](MapStore& store) -> Status {
+    SEMMAP_ASSIGN_OR_RETURN(stored, LoadKeyframeClouds(store, map_name_, "", options_.occupancy));
+    return OkStatus();
+  });
+  if (!status.ok()) {
+    RecordError(status.WithContext("restoring from stored keyframes"));
+    return;
+  }
+  for (StoredKeyframeCloud& kf : stored) {
+    Entry& entry = entries_[{kf.session_id, kf.seq}];
+    entry.cloud = std::move(kf.cloud);
+    entry.T_world_keyframe = kf.T_world_keyframe;
+  }
+  if (stored.empty()) return;
+  rebuild_needed_ = true;
+  std::lock_guard lock(mutex_);
+  stats_.restored_keyframes = stored.size();
+}
+
+void MapLayerBuilder::Handle(KeyframeImages& images) {
+  const Clock::time_point t0 = Clock::now();
+  StatusOr<KeyframeCloud> cloud =
+      MakeKeyframeCloud(images.depth, images.colour, images.camera, options_.occupancy);
+  if (!cloud.ok()) {
+    RecordError(cloud.status().WithContext("keyframe seq " + std::to_string(images.seq)));
+    return;
+  }
+  Entry& entry = entries_[{images.session_id, images.seq}];
+  // A keyframe seen again (restored, then re-sent) replaces its cloud: the tree needs a rebuild.
+  if (entry.inserted) rebuild_needed_ = true;
+  entry.cloud = std::make_shared<const KeyframeCloud>(std::move(cloud).value());
+  entry.inserted = false;
+  InsertIfReady(entry);
+  if (entry.inserted) {
+    std::lock_guard lock(mutex_);
+    insert_ms_.Add(MillisecondsSince(t0));
+  }
+}
+
+void MapLayerBuilder::Handle(const PoseUpdate& update) {
+  for (const KeyframePose& pose : update.poses) {
+    Entry& entry = entries_[{pose.session_id, pose.seq}];
+    if (entry.inserted && entry.T_world_keyframe &&
+        MovedBeyond(*entry.T_world_keyframe, pose.T_world_keyframe,
+                    options_.rebuild_min_translation_m, options_.rebuild_min_rotation_rad)) {
+      rebuild_needed_ = true;
+    }
+    entry.T_world_keyframe = pose.T_world_keyframe;
+    if (!entry.inserted && entry.cloud) {
+      const Clock::time_point t0 = Clock::now();
+      InsertIfReady(entry);
+      if (entry.inserted) {
+        std::lock_guard lock(mutex_);
+        insert_ms_.Add(MillisecondsSince(t0));
+      }
+    }
+  }
+}
+
+void MapLayerBuilder::InsertIfReady(Entry& entry) {
+  if (!entry.cloud || !entry.T_world_keyframe) return;
+  dirty_ = true;
+  if (rebuild_needed_) return;  // the coming rebuild takes it in
+  const Status status = occupancy_.Insert(*entry.cloud, *entry.T_world_keyframe);
+  if (!status.ok()) {
+    RecordError(status);
+    return;
+  }
+  entry.inserted = true;
+  std::lock_guard lock(mutex_);
+  ++stats_.keyframes_inserted;
+}
+
+std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> MapLayerBuilder::PlacedClouds()
+    const {
+  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> out;
+  out.reserve(entries_.size());
+  for (const auto& [key, entry] : entries_) {
+    if (entry.cloud && entry.T_world_keyframe) {
+      out.emplace_back(entry.cloud.get(), *entry.T_world_keyframe);
+    }
+  }
+  return out;
+}
+
+void MapLayerBuilder::Rebuild() {
+  const Clock::time_point t0 = Clock::now();
+  rebuild_needed_ = false;
+  StatusOr<OccupancyMap> rebuilt = OccupancyMap::Build(PlacedClouds(), options_.occupancy);
+  if (!rebuilt.ok()) {
+    RecordError(rebuilt.status().WithContext("rebuild"));
+    return;
+  }
+  occupancy_ = std::move(rebuilt).value();  // the swap: the old tree served until now
+  size_t inserted = 0;
+  for (auto& [key, entry] : entries_) {
+    entry.inserted = entry.cloud && entry.T_world_keyframe;
+    if (entry.inserted) ++inserted;
+  }
+  dirty_ = true;
+  std::lock_guard lock(mutex_);
+  stats_.keyframes_inserted = inserted;
+  ++stats_.rebuilds;
+  rebuild_ms_.Add(MillisecondsSince(t0));
+}
+
+void MapLayerBuilder::Persist() {
+  const Clock::time_point t0 = Clock::now();
+  dirty_ = false;
+  last_persist_ = t0;
+  StatusOr<std::string> ot = occupancy_.SerializeOt();
+  if (!ot.ok()) {
+    RecordError(ot.status());
+    return;
+  }
+  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> placed = PlacedClouds();
+  StatusOr<PointCloudMap> cloud = PointCloudMap::Build(placed, options_.cloud);
+  if (!cloud.ok()) {
+    RecordError(cloud.status());
+    return;
+  }
+  StatusOr<std::string> pcd = cloud->ToPcd(/*binary=*/true);
+  if (!pcd.ok()) {
+    RecordError(pcd.status());
+    return;
+  }
+  size_t cloud_bytes = 0;
+  for (const auto& [kf, T] : placed) cloud_bytes += kf->points.size() * (12 + 3);
+  const Eigen::AlignedBox3d bounds = occupancy_.Bounds();
+  {
+    std::lock_guard lock(mutex_);
+    stats_.octree_bytes = occupancy_.MemoryBytes();
+    stats_.keyframe_cloud_bytes = cloud_bytes;
+    stats_.cloud_points = cloud->size();
+    stats_.occupancy_blob_bytes = ot->size();
+    stats_.cloud_blob_bytes = pcd->size();
+    stats_.known_volume_m3 = bounds.isEmpty() ? 0.0 : bounds.volume();
+    ++stats_.persists;
+    ++pending_writes_;
+  }
+  WriteBatch batch;
+  const int64_t now = NowUnixNs();
+  batch.blobs.push_back({map_id_, kOccupancyBlobKind, std::move(ot).value(), now});
+  batch.blobs.push_back({map_id_, kCloudBlobKind, std::move(pcd).value(), now});
+  const Status submitted =
+      writer_->Submit(std::move(batch), [this](const Status& status, const WriteResult&) {
+        if (!status.ok()) RecordError(status.WithContext("writing map blobs"));
+        std::lock_guard lock(mutex_);
+        --pending_writes_;
+        writes_done_.notify_all();
+      });
+  if (!submitted.ok()) {
+    RecordError(submitted.WithContext("writing map blobs"));
+    std::lock_guard lock(mutex_);
+    --pending_writes_;
+    writes_done_.notify_all();
+  }
+  std::lock_guard lock(mutex_);
+  persist_ms_.Add(MillisecondsSince(t0));
+}
+
+}  // namespace semmap

@@ -1,0 +1,290 @@
+#include "server/objects/object_mapper.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <string>
+
+#include "common/time_util.h"
+#include "server/recognition/keyframe_recognition.h"
+
+namespace semmap {
+
+using Clock = std::chrono::steady_clock;
+
+Status ObjectMapperOptions::Validate() const {
+  SEMMAP_RETURN_IF_ERROR(fusion.Validate().WithContext("object fusion"));
+  if (queue_capacity < 1 || queue_capacity > 100000) {
+    return InvalidArgumentError("object mapper queue capacity must be in [1, 100000]");
+  }
+  return OkStatus();
+}
+
+StatusOr<std::unique_ptr<ObjectMapper>> ObjectMapper::Start(int64_t map_id,
+                                                            ObjectMapperOptions options,
+                                                            const ObjectCatalog* catalog,
+                                                            StorageWriter* writer, bool restore) {
+  SEMMAP_RETURN_IF_ERROR(options.Validate());
+  if (catalog == nullptr || writer == nullptr) {
+    return InvalidArgumentError("the object mapper needs a catalog and a storage writer");
+  }
+  std::unique_ptr<ObjectMapper> mapper(
+      new ObjectMapper(map_id, std::move(options), catalog, writer));
+  mapper->worker_ = std::thread([raw = mapper.get(), restore] { raw->Run(restore); });
+  return mapper;
+}
+
+ObjectMapper::ObjectMapper(int64_t map_id, ObjectMapperOptions options,
+                           const ObjectCatalog* catalog, StorageWriter* writer)
+    : map_id_(map_id),
+      options_(std::move(options)),
+      catalog_(catalog),
+      writer_(writer),
+      queue_(options_.queue_capacity) {}
+
+ObjectMapper::~ObjectMapper() { Stop(); }
+
+void ObjectMapper::Stop() {
+  std::lock_guard stop_lock(stop_mutex_);
+  queue_.Shutdown();
+  if (worker_.joinable()) worker_.join();
+  std::unique_lock lock(mutex_);
+  writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
+}
+
+Status ObjectMapper::AddKeyframe(int64_t session_id, int64_t seq, int64_t stamp_ns,
+                                 std::shared_ptr<const FrameFeatures> features,
+                                 const CameraCalibration& camera) {
+  if (!features) return InvalidArgumentError("object mapper: keyframe without features");
+  KeyframeItem item{std::move(features), session_id, seq, stamp_ns, camera};
+  if (!queue_.Push(std::move(item))) {
+    return UnavailableError("object mapper stopped");
+  }
+  std::lock_guard lock(mutex_);
+  stats_.queue_high_water = std::max(stats_.queue_high_water, queue_.size());
+  return OkStatus();
+}
+
+Status ObjectMapper::EndSession(int64_t session_id) {
+  if (!queue_.Push(SessionEnd{session_id})) return UnavailableError("object mapper stopped");
+  return OkStatus();
+}
+
+Status ObjectMapper::SetKeyframePoses(std::vector<KeyframePose> poses, bool /*correction*/) {
+  if (!queue_.Push(PoseUpdate{std::move(poses)})) return UnavailableError("object mapper stopped");
+  return OkStatus();
+}
+
+Status ObjectMapper::Flush() {
+  auto done = std::make_shared<std::promise<Status>>();
+  std::future<Status> result = done->get_future();
+  if (!queue_.Push(FlushRequest{done})) return UnavailableError("object mapper stopped");
+  return result.get();
+}
+
+ObjectMapperStats ObjectMapper::stats() const {
+  std::lock_guard lock(mutex_);
+  ObjectMapperStats out = stats_;
+  out.recognise_ms = recognise_ms_.Summarize();
+  out.fuse_ms = fuse_ms_.Summarize();
+  return out;
+}
+
+void ObjectMapper::RecordError(const Status& status) {
+  std::fprintf(stderr, "semmapd: objects of map %lld: %s\n", static_cast<long long>(map_id_),
+               status.ToString().c_str());
+  std::lock_guard lock(mutex_);
+  if (error_.ok()) error_ = status.WithContext("objects");
+}
+
+void ObjectMapper::Run(bool restore) {
+  if (restore) Restore();
+  for (;;) {
+    std::optional<Event> event = queue_.TryPop();
+    if (!event) {
+      if (dirty_) FuseAndWrite();  // idle: the instances catch up
+      event = queue_.Pop();
+      if (!event) break;  // shut down and drained
+    }
+    if (auto* item = std::get_if<KeyframeItem>(&*event)) {
+      Handle(*item);
+    } else if (auto* end = std::get_if<SessionEnd>(&*event)) {
+      Handle(*end);
+    } else if (auto* update = std::get_if<PoseUpdate>(&*event)) {
+      Handle(*update);
+    } else {
+      const auto& flush = std::get<FlushRequest>(*event);
+      if (dirty_) FuseAndWrite();
+      std::unique_lock lock(mutex_);
+      writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
+      flush.done->set_value(error_);
+      error_ = OkStatus();
+    }
+  }
+  for (auto& [session_id, recent] : recent_) {
+    if (!recent.empty()) Handle(SessionEnd{session_id});
+  }
+  if (dirty_) FuseAndWrite();
+}
+
+void ObjectMapper::Restore() {
+  std::vector<ObjectObservation> stored;
+  std::map<Key, Eigen::Isometry3d> poses;
+  const Status status = writer_->RunSync([&](MapStore& store) -> Status {
+    SEMMAP_ASSIGN_OR_RETURN(stored, store.ListObjectObservations(map_id_));
+    if (stored.empty()) return OkStatus();
+    std::set<int64_t> sessions;
+    for (const ObjectObservation& o : stored) sessions.insert(o.session_id);
+    for (const int64_t session_id : sessions) {
+      SEMMAP_ASSIGN_OR_RETURN(std::vector<KeyframeRecord> keyframes,
+                              store.ListKeyframes(session_id, /*with_images=*/false));
+      for (const KeyframeRecord& kf : keyframes) poses[{session_id, kf.seq}] = kf.T_world_camera;
+    }
+    return OkStatus();
+  });
+  if (!status.ok()) {
+    RecordError(status.WithContext("restoring observations"));
+    return;
+  }
+  observations_ = std::move(stored);
+  // Poses the back end sent already are newer than the stored ones.
+  for (auto& [key, T] : poses) poses_.emplace(key, T);
+  std::lock_guard lock(mutex_);
+  stats_.restored_observations = observations_.size();
+}
+
+void ObjectMapper::Handle(KeyframeItem& item) {
+  std::deque<KeyframeItem>& recent = recent_[item.session_id];
+  recent.push_back(std::move(item));
+  // The one before the newest now has both neighbours.
+  if (recent.size() >= 2) {
+    const KeyframeItem* before = recent.size() >= 3 ? &recent[recent.size() - 3] : nullptr;
+    Recognise(recent[recent.size() - 2], before, &recent.back());
+  }
+  while (recent.size() > 2) recent.pop_front();
+}
+
+void ObjectMapper::Handle(const SessionEnd& end) {
+  auto it = recent_.find(end.session_id);
+  if (it == recent_.end() || it->second.empty()) return;
+  std::deque<KeyframeItem>& recent = it->second;
+  const KeyframeItem* before = recent.size() >= 2 ? &recent[recent.size() - 2] : nullptr;
+  Recognise(recent.back(), before, nullptr);
+  recent_.erase(it);
+}
+
+void ObjectMapper::Handle(const PoseUpdate& update) {
+  for (const KeyframePose& p : update.poses) {
+    poses_[{p.session_id, p.seq}] = p.T_world_keyframe;
+  }
+  // Only poses of keyframes with observations move instances.
+  if (!dirty_) {
+    for (const KeyframePose& p : update.poses) {
+      for (const ObjectObservation& o : observations_) {
+        if (o.session_id == p.session_id && o.seq == p.seq) {
+          dirty_ = true;
+          break;
+        }
+      }
+      if (dirty_) break;
+    }
+  }
+}
+
+void ObjectMapper::Recognise(const KeyframeItem& target, const KeyframeItem* before,
+                             const KeyframeItem* after) {
+  if (!options_.enabled) return;
+  const std::shared_ptr<const ObjectModelSet> models = catalog_->ModelsFor(map_id_);
+  if (models->models.empty()) return;
+  const Clock::time_point t0 = Clock::now();
+  std::vector<const FrameFeatures*> neighbours;
+  if (before) neighbours.push_back(before->features.get());
+  if (after) neighbours.push_back(after->features.get());
+  StatusOr<KeyframeRecognition> result =
+      RecogniseKeyframe(*target.features, target.camera, neighbours, models->models,
+                        catalog_->options(), options_.apply_xi);
+  if (!result.ok()) {
+    RecordError(result.status().WithContext("keyframe seq " + std::to_string(target.seq)));
+    return;
+  }
+  WriteBatch batch;
+  uint64_t rejected = 0;
+  for (const RecognisedObject& found : result->found) {
+    if (!found.xi.accepted()) {
+      ++rejected;
+      continue;
+    }
+    ObjectObservation o = ToObservation(found.detection, found.xi.xi);
+    o.map_id = map_id_;
+    o.session_id = target.session_id;
+    o.seq = target.seq;
+    o.stamp_ns = target.stamp_ns;
+    batch.observations.push_back(o);
+    observations_.push_back(std::move(o));
+  }
+  const size_t accepted = batch.observations.size();
+  if (accepted > 0) {
+    dirty_ = true;
+    Submit(std::move(batch));
+  }
+  std::lock_guard lock(mutex_);
+  ++stats_.keyframes_searched;
+  stats_.detections += result->found.size();
+  stats_.rejected_by_xi += rejected;
+  stats_.observations += accepted;
+  stats_.models = models->models.size();
+  recognise_ms_.Add(MillisecondsSince(t0));
+}
+
+void ObjectMapper::FuseAndWrite() {
+  const Clock::time_point t0 = Clock::now();
+  dirty_ = false;
+  // Types removed since are dropped (the store removed their rows).
+  std::erase_if(observations_,
+                [&](const ObjectObservation& o) { return !catalog_->Contains(o.type_id); });
+  std::vector<WorldObjectObservation> world;
+  world.reserve(observations_.size());
+  for (const ObjectObservation& o : observations_) {
+    const auto pose = poses_.find({o.session_id, o.seq});
+    if (pose == poses_.end()) continue;  // placed once the back end says where it is
+    world.push_back(ObservationInWorld(o, pose->second));
+    world.back().map_id = map_id_;
+  }
+  StatusOr<std::vector<ObjectInstance>> instances = FuseObservations(world, options_.fusion);
+  if (!instances.ok()) {
+    RecordError(instances.status());
+    return;
+  }
+  for (ObjectInstance& instance : *instances) instance.map_id = map_id_;
+  const size_t count = instances->size();
+  WriteBatch batch;
+  batch.instances.emplace_back(map_id_, std::move(instances).value());
+  Submit(std::move(batch));
+  std::lock_guard lock(mutex_);
+  ++stats_.fusions;
+  stats_.instances = count;
+  fuse_ms_.Add(MillisecondsSince(t0));
+}
+
+void ObjectMapper::Submit(WriteBatch batch) {
+  {
+    std::lock_guard lock(mutex_);
+    ++pending_writes_;
+  }
+  const Status submitted =
+      writer_->Submit(std::move(batch), [this](const Status& status, const WriteResult&) {
+        if (!status.ok()) RecordError(status.WithContext("writing objects"));
+        std::lock_guard lock(mutex_);
+        --pending_writes_;
+        writes_done_.notify_all();
+      });
+  if (!submitted.ok()) {
+    RecordError(submitted.WithContext("writing objects"));
+    std::lock_guard lock(mutex_);
+    --pending_writes_;
+    writes_done_.notify_all();
+  }
+}
+
+}  // namespace semmap

@@ -1,0 +1,148 @@
+// Object recognition and object instances of one map, on a thread of its own (off the tracking
+// path).
+//
+// Sessions hand over each keyframe's features (with depth); the keyframe is searched for every
+// object type visible in the map (ObjectCatalog) once its next keyframe has arrived, so the
+// neighbour check (xi = N_c / N_n) sees the keyframes on both sides; a session's last keyframe
+// is decided at EndSession with its previous one only. Accepted detections become observations
+// in the keyframe's frame, written through the storage writer. The SLAM back end (or a
+// KNOWN_POSES session) says where keyframes are; whenever observations or poses change, the
+// observations are moved into the map frame with the current poses and fused into instances,
+// which replace the map's stored instances (queries read those). So a pose-graph correction
+// moves every object with the keyframes that saw it.
+//
+// A mapper started for a map with stored observations (after a restart) loads them and the
+// keyframe poses first.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <future>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "common/bounded_queue.h"
+#include "common/camera.h"
+#include "common/latency_stats.h"
+#include "common/map_types.h"
+#include "common/object_types.h"
+#include "common/status.h"
+#include "server/objects/object_catalog.h"
+#include "server/recognition/object_fusion.h"
+#include "storage/storage_writer.h"
+
+namespace semmap {
+
+struct ObjectMapperOptions {
+  bool enabled = true;  // false: keyframes are not searched for objects
+  bool apply_xi = true;  // the neighbour check (false: every verified detection is kept)
+  ObjectFusionOptions fusion;
+  size_t queue_capacity = 64;
+
+  Status Validate() const;
+};
+
+struct ObjectMapperStats {
+  uint64_t keyframes_searched = 0;
+  uint64_t detections = 0;       // verified geometrically
+  uint64_t rejected_by_xi = 0;
+  uint64_t observations = 0;     // accepted (stored)
+  uint64_t restored_observations = 0;
+  uint64_t fusions = 0;
+  size_t instances = 0;          // after the last fusion
+  size_t models = 0;             // object types the last keyframe was searched for
+  size_t queue_high_water = 0;
+  LatencySummary recognise_ms;   // per keyframe (detection + neighbour check)
+  LatencySummary fuse_ms;
+};
+
+class ObjectMapper {
+ public:
+  // `catalog` and `writer` must outlive the mapper. INVALID_ARGUMENT for bad options.
+  static StatusOr<std::unique_ptr<ObjectMapper>> Start(int64_t map_id, ObjectMapperOptions options,
+                                                       const ObjectCatalog* catalog,
+                                                       StorageWriter* writer, bool restore);
+  ~ObjectMapper();  // Stop()
+  ObjectMapper(const ObjectMapper&) = delete;
+  ObjectMapper& operator=(const ObjectMapper&) = delete;
+
+  // A keyframe of a session, after its own write was submitted (observations name it by
+  // (session, seq)). Block only while the queue is full; UNAVAILABLE after Stop().
+  Status AddKeyframe(int64_t session_id, int64_t seq, int64_t stamp_ns,
+                     std::shared_ptr<const FrameFeatures> features, const CameraCalibration& camera);
+  // The session sends no more keyframes: its last one is decided now.
+  Status EndSession(int64_t session_id);
+  // Keyframe poses, as MapLayerBuilder takes them.
+  Status SetKeyframePoses(std::vector<KeyframePose> poses, bool correction);
+  // Waits until everything handed over so far is recognised, fused and committed; returns the
+  // first error since the last Flush.
+  Status Flush();
+  void Stop();
+
+  ObjectMapperStats stats() const;
+
+ private:
+  struct KeyframeItem {
+    std::shared_ptr<const FrameFeatures> features;
+    int64_t session_id = 0, seq = 0, stamp_ns = 0;
+    CameraCalibration camera;
+  };
+  struct SessionEnd {
+    int64_t session_id = 0;
+  };
+  struct PoseUpdate {
+    std::vector<KeyframePose> poses;
+  };
+  struct FlushRequest {
+    std::shared_ptr<std::promise<Status>> done;
+  };
+  using Event = std::variant<KeyframeItem, SessionEnd, PoseUpdate, FlushRequest>;
+  using Key = std::pair<int64_t, int64_t>;  // (session_id, seq)
+
+  ObjectMapper(int64_t map_id, ObjectMapperOptions options, const ObjectCatalog* catalog,
+               StorageWriter* writer);
+  void Run(bool restore);
+  void Restore();
+  void Handle(KeyframeItem& item);
+  void Handle(const SessionEnd& end);
+  void Handle(const PoseUpdate& update);
+  // Searches `target` with its neighbours (either may be null).
+  void Recognise(const KeyframeItem& target, const KeyframeItem* before, const KeyframeItem* after);
+  void FuseAndWrite();
+  void Submit(WriteBatch batch);
+  void RecordError(const Status& status);
+
+  const int64_t map_id_;
+  const ObjectMapperOptions options_;
+  const ObjectCatalog* const catalog_;
+  StorageWriter* const writer_;
+  BoundedQueue<Event> queue_;
+
+  // Mapper-thread state.
+  std::map<int64_t, std::deque<KeyframeItem>> recent_;  // per session: the last two keyframes
+  std::map<Key, Eigen::Isometry3d> poses_;
+  std::vector<ObjectObservation> observations_;  // every accepted one of the map
+  bool dirty_ = false;  // observations or poses changed since the last fusion
+
+  mutable std::mutex mutex_;
+  ObjectMapperStats stats_;
+  LatencyStats recognise_ms_{"recognise"};
+  LatencyStats fuse_ms_{"fuse_objects"};
+  Status error_;
+  std::condition_variable writes_done_;
+  size_t pending_writes_ = 0;
+
+  std::mutex stop_mutex_;
+  std::thread worker_;
+};
+
+}  // namespace semmap

@@ -1,0 +1,190 @@
+#include "server/query/map_layer_export.h"
+
+#include <cmath>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "server/mapping/cloud_pcd_reader.h"
+#include "server/mapping/map_render.h"
+#include "server/mapping/stored_keyframe_clouds.h"
+
+namespace semmap {
+namespace {
+
+using PlacedClouds = std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>>;
+
+PlacedClouds Placed(const std::vector<StoredKeyframeCloud>& keyframes) {
+  PlacedClouds out;
+  out.reserve(keyframes.size());
+  for (const StoredKeyframeCloud& kf : keyframes) {
+    out.emplace_back(kf.cloud.get(), kf.T_world_keyframe);
+  }
+  return out;
+}
+
+Status NoLayersError(const std::string& map) {
+  return NotFoundError("map '" + map +
+                       "' has no 3D layers yet (no keyframe with depth has been mapped)");
+}
+
+// A rebuild from the stored keyframes is needed for a session filter or another resolution.
+bool Rebuilds(const ExportRequest& request) {
+  return !request.session.empty() || request.voxel_m > 0;
+}
+
+StatusOr<std::vector<StoredKeyframeCloud>> LoadClouds(MapStore& store, const ExportRequest& request,
+                                                      const OccupancyMapOptions& options) {
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<StoredKeyframeCloud> keyframes,
+                          LoadKeyframeClouds(store, request.map, request.session, options));
+  if (keyframes.empty()) return NoLayersError(request.map);
+  return keyframes;
+}
+
+StatusOr<OccupancyMap> Occupancy(MapStore& store, const MapInfo& map, const ExportRequest& request,
+                                 const MapLayerOptions& layers) {
+  if (Rebuilds(request)) {
+    OccupancyMapOptions options = layers.occupancy;
+    if (request.voxel_m > 0) options.resolution_m = request.voxel_m;
+    SEMMAP_RETURN_IF_ERROR(options.Validate().WithContext("--voxel"));
+    SEMMAP_ASSIGN_OR_RETURN(std::vector<StoredKeyframeCloud> keyframes,
+                            LoadClouds(store, request, options));
+    return OccupancyMap::Build(Placed(keyframes), options);
+  }
+  StatusOr<MapBlob> blob = store.GetBlob(map.id, kOccupancyBlobKind);
+  if (!blob.ok()) {
+    if (blob.status().code() == StatusCode::kNotFound) return NoLayersError(map.name);
+    return blob.status();
+  }
+  StatusOr<OccupancyMap> occupancy = OccupancyMap::DeserializeOt(blob->data, layers.occupancy);
+  if (!occupancy.ok()) {
+    // The bytes passed their checksum, so they were stored this way: the layer is unusable.
+    return DataLossError("stored occupancy map of '" + map.name +
+                         "': " + occupancy.status().message());
+  }
+  return occupancy;
+}
+
+StatusOr<PointCloudMap> Cloud(MapStore& store, const MapInfo& map, const ExportRequest& request,
+                              const MapLayerOptions& layers) {
+  PointCloudMapOptions options = layers.cloud;
+  if (request.voxel_m > 0) options.leaf_size_m = request.voxel_m;
+  SEMMAP_RETURN_IF_ERROR(options.Validate().WithContext("--voxel"));
+  if (!request.session.empty()) {
+    SEMMAP_ASSIGN_OR_RETURN(std::vector<StoredKeyframeCloud> keyframes,
+                            LoadClouds(store, request, layers.occupancy));
+    return PointCloudMap::Build(Placed(keyframes), options);
+  }
+  StatusOr<MapBlob> blob = store.GetBlob(map.id, kCloudBlobKind);
+  if (!blob.ok()) {
+    if (blob.status().code() == StatusCode::kNotFound) return NoLayersError(map.name);
+    return blob.status();
+  }
+  StatusOr<std::vector<CloudPoint>> points = ReadCloudPcd(blob->data);
+  if (!points.ok()) {
+    return DataLossError("stored cloud of '" + map.name + "': " + points.status().message());
+  }
+  if (request.voxel_m <= 0) return PointCloudMap::FromPoints(std::move(points).value(), options);
+  // Another leaf: filter the stored cloud again (one "keyframe" at the origin).
+  KeyframeCloud merged;
+  merged.points.reserve(points->size());
+  merged.colours.reserve(points->size());
+  for (const CloudPoint& p : *points) {
+    merged.points.emplace_back(p.x, p.y, p.z);
+    merged.colours.push_back({p.b, p.g, p.r});
+  }
+  return PointCloudMap::Build({{&merged, Eigen::Isometry3d::Identity()}}, options);
+}
+
+StatusOr<std::string> RenderPng(MapStore& store, const MapInfo& map, const ExportRequest& request,
+                                const MapLayerOptions& layers) {
+  MapRenderOptions options;
+  if (request.width_px > 0) options.long_side_px = request.width_px;
+  if (request.view == "oblique") {
+    options.view = RenderView::kOblique;
+  } else if (!request.view.empty() && request.view != "top") {
+    return InvalidArgumentError("unknown view '" + request.view + "' (top, oblique)");
+  }
+  SEMMAP_RETURN_IF_ERROR(options.Validate());
+
+  MapRenderInput input;
+  input.title = "map '" + map.name + "'" +
+                (request.session.empty() ? "" : " session '" + request.session + "'");
+  StatusOr<PointCloudMap> cloud = Cloud(store, map, request, layers);
+  // A map without layers (no depth) still shows its trajectories.
+  if (!cloud.ok() && cloud.status().code() != StatusCode::kNotFound) return cloud.status();
+  if (cloud.ok()) {
+    input.cloud.reserve(cloud->size());
+    for (const CloudPoint& p : cloud->points())
+      input.cloud.push_back({p.x, p.y, p.z, p.r, p.g, p.b});
+  }
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<SessionInfo> sessions, store.ListSessions(map.name));
+  std::map<int64_t, Eigen::Vector3d> keyframe_positions;  // by keyframe id
+  bool matched = request.session.empty();
+  for (const SessionInfo& s : sessions) {
+    const bool shown = request.session.empty() || s.name == request.session;
+    matched = matched || shown;
+    SEMMAP_ASSIGN_OR_RETURN(std::vector<KeyframeRecord> keyframes,
+                            store.ListKeyframes(s.id, /*with_images=*/false));
+    for (const KeyframeRecord& kf : keyframes) {
+      keyframe_positions[kf.id] = kf.T_world_camera.translation();
+      if (shown) input.keyframes.push_back(kf.T_world_camera);
+    }
+    if (!shown) continue;
+    SEMMAP_ASSIGN_OR_RETURN(std::vector<TrajectoryPose> poses,
+                            store.GetTrajectory(s.id, /*keyframes_only=*/false));
+    std::vector<Eigen::Isometry3d>& trajectory = input.trajectories.emplace_back();
+    for (const TrajectoryPose& p : poses) {
+      if (!p.lost) trajectory.push_back(p.T_world_camera);
+    }
+  }
+  if (!matched) {
+    return NotFoundError("map '" + map.name + "' has no session '" + request.session + "'");
+  }
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<LinkRecord> links, store.ListLinks(map.id));
+  for (const LinkRecord& link : links) {
+    if (link.kind != LinkKind::kLoop) continue;
+    const auto from = keyframe_positions.find(link.from_keyframe_id);
+    const auto to = keyframe_positions.find(link.to_keyframe_id);
+    if (from != keyframe_positions.end() && to != keyframe_positions.end()) {
+      input.loop_edges.emplace_back(from->second, to->second);
+    }
+  }
+  return RenderMapPng(input, options);
+}
+
+}  // namespace
+
+bool IsLayerExportFormat(const std::string& format) {
+  return format == "ot" || format == "bt" || format == "ply" || format == "pcd" || format == "png";
+}
+
+StatusOr<ExportResult> BuildLayerExport(MapStore& store, const ExportRequest& request,
+                                        const MapLayerOptions& layers) {
+  if (!std::isfinite(request.voxel_m) || request.voxel_m < 0) {
+    return InvalidArgumentError("voxel size must be a finite number >= 0");
+  }
+  SEMMAP_ASSIGN_OR_RETURN(MapInfo map, store.GetMap(request.map));
+  ExportResult result;
+  result.format = request.format;
+  if (request.format == "ot" || request.format == "bt") {
+    result.media_type = "application/octet-stream";
+    SEMMAP_ASSIGN_OR_RETURN(OccupancyMap occupancy, Occupancy(store, map, request, layers));
+    SEMMAP_ASSIGN_OR_RETURN(
+        result.bytes, request.format == "ot" ? occupancy.SerializeOt() : occupancy.SerializeBt());
+  } else if (request.format == "ply" || request.format == "pcd") {
+    result.media_type = request.format == "ply" ? "application/x-ply" : "application/x-pcd";
+    SEMMAP_ASSIGN_OR_RETURN(PointCloudMap cloud, Cloud(store, map, request, layers));
+    SEMMAP_ASSIGN_OR_RETURN(result.bytes, request.format == "ply" ? cloud.ToPly(!request.ascii)
+                                                                  : cloud.ToPcd(!request.ascii));
+  } else if (request.format == "png") {
+    result.media_type = "image/png";
+    SEMMAP_ASSIGN_OR_RETURN(result.bytes, RenderPng(store, map, request, layers));
+  } else {
+    return InvalidArgumentError("not a layer export format: '" + request.format + "'");
+  }
+  return result;
+}
+
+}  // namespace semmap
