@@ -35,7 +35,9 @@ bench: build
 	build/release/bench/tracking_bench
 	build/release/bench/matcher_bench
 	build/release/bench/place_recognition_bench
+	build/release/bench/object_query_bench
 	bash bench/slam_bench.sh
+	bash bench/map_bench.sh
 
 format:
 	git ls-files '*.cc' '*.h' | xargs clang-format -i

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The end-to-end demo: start semmapd on its embedded SQLite store, stream the bundled real
-# sample (TUM fr3/teddy, 80 frames) as an RGBD visual SLAM session, compare the trajectory the
-# server estimated with the ground truth, show what was stored, and stop the server cleanly. Run through `make demo` (which installs and builds first).
+# sample (TUM fr3/teddy, 80 frames) as an RGBD visual SLAM session with the teddy registered as
+# an object, compare the trajectory the server estimated with the ground truth, show what was
+# stored, export the 3D map and its picture, print where the teddy is, and stop the server
+# cleanly. Run through `make demo` (which installs and builds first).
 set -euo pipefail
 
 BUILD_DIR=${BUILD_DIR:-build/release}
@@ -22,7 +24,10 @@ export SEMMAP_SERVER="$SEMMAPD_ADDR"
 echo "== semmapd serving on $SEMMAPD_ADDR, data in $DATA_DIR"
 "$SEMMAP" health
 
-echo "== streaming $SAMPLE (RGBD: the server tracks the camera and maps)"
+echo "== registering the object to look for: the teddy, from a crop of the sample's first frame"
+"$SEMMAP" objects add teddy "${OBJECT_PHOTO:-data/samples/objects/teddy.png}"
+
+echo "== streaming $SAMPLE (RGBD: the server tracks the camera, maps and recognises objects)"
 "$SEMMAP" ingest "$SAMPLE" --map demo --session teddy \
   --trajectory-out "$DATA_DIR/teddy_trajectory.txt"
 echo "== accuracy of the estimated trajectory against the sample's ground truth"
@@ -39,7 +44,11 @@ echo "== the 3D map: OctoMap, coloured cloud, and a picture from above"
 "$SEMMAP" export --map demo --format bt -o "$DATA_DIR/demo_map.bt"
 "$SEMMAP" export --map demo --format ply -o "$DATA_DIR/demo_map.ply"
 "$SEMMAP" export --map demo --format png -o "${DEMO_PNG:-demo-map.png}"
-echo "== objects: recognition is not implemented yet, so no object positions to print"
+echo "== where is the teddy? (map frame: the first camera's, metres)"
+"$SEMMAP" where teddy
+"$SEMMAP" --json where teddy
+echo "== what is within 2 m of the first camera?"
+"$SEMMAP" near 0 0 0 2
 
 kill -TERM "$server_pid"
 wait "$server_pid"

@@ -491,12 +491,17 @@ void IngestSession::Finish(Status status) {
     backend_stages.push_back(stats.rebuild_ms);
     std::fprintf(stderr,
                  "semmapd: map '%s' layers: %llu keyframes (%llu restored), %llu rebuilds, "
-                 "octree %.1f MiB, cloud %zu points, blobs %.1f + %.1f MiB\n",
+                 "octree %.1f MiB for %.1f m3 known (%.0f kB/m3), cloud %zu points, blobs "
+                 "%.1f + %.1f MiB\n",
                  session_->map_name.c_str(),
                  static_cast<unsigned long long>(stats.keyframes_inserted),
                  static_cast<unsigned long long>(stats.restored_keyframes),
                  static_cast<unsigned long long>(stats.rebuilds),
-                 static_cast<double>(stats.octree_bytes) / (1 << 20), stats.cloud_points,
+                 static_cast<double>(stats.octree_bytes) / (1 << 20), stats.known_volume_m3,
+                 stats.known_volume_m3 > 0
+                     ? static_cast<double>(stats.octree_bytes) / 1000.0 / stats.known_volume_m3
+                     : 0.0,
+                 stats.cloud_points,
                  static_cast<double>(stats.occupancy_blob_bytes) / (1 << 20),
                  static_cast<double>(stats.cloud_blob_bytes) / (1 << 20));
   }

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <string>
 
+#include "common/thread_priority.h"
 #include "common/time_util.h"
 #include "server/mapping/stored_keyframe_clouds.h"
 
@@ -119,6 +120,7 @@ void MapLayerBuilder::RecordError(const Status& status) {
 }
 
 void MapLayerBuilder::Run(bool restore) {
+  LowerCurrentThreadPriority();  // background work: tracking first when cores are short
   if (restore) Restore();
   const auto interval = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(options_.persist_interval_s));
@@ -282,7 +284,7 @@ void MapLayerBuilder::Persist() {
   }
   size_t cloud_bytes = 0;
   for (const auto& [kf, T] : placed) cloud_bytes += kf->points.size() * (12 + 3);
-  const Eigen::AlignedBox3d bounds = occupancy_.Bounds();
+  const double known_volume = occupancy_.KnownVolume();
   {
     std::lock_guard lock(mutex_);
     stats_.octree_bytes = occupancy_.MemoryBytes();
@@ -290,7 +292,7 @@ void MapLayerBuilder::Persist() {
     stats_.cloud_points = cloud->size();
     stats_.occupancy_blob_bytes = ot->size();
     stats_.cloud_blob_bytes = pcd->size();
-    stats_.known_volume_m3 = bounds.isEmpty() ? 0.0 : bounds.volume();
+    stats_.known_volume_m3 = known_volume;
     ++stats_.persists;
     ++pending_writes_;
   }

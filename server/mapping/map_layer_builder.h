@@ -71,7 +71,7 @@ struct MapLayerStats {
   size_t keyframe_cloud_bytes = 0;  // clouds kept for rebuilds
   size_t cloud_points = 0;          // in the last persisted cloud
   size_t occupancy_blob_bytes = 0, cloud_blob_bytes = 0;
-  double known_volume_m3 = 0;  // bounding box of the known space
+  double known_volume_m3 = 0;  // free or occupied leaves of the tree
   LatencySummary insert_ms;    // cloud + ray-casting per keyframe
   LatencySummary rebuild_ms;   // full occupancy rebuild after a correction
   LatencySummary persist_ms;   // serialise + cloud build + submit

@@ -411,6 +411,15 @@ size_t OccupancyMap::size() const { return tree_->size(); }
 
 size_t OccupancyMap::MemoryBytes() const { return tree_->memoryUsage(); }
 
+double OccupancyMap::KnownVolume() const {
+  double volume = 0;
+  for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
+    const double size = it.getSize();
+    volume += size * size * size;
+  }
+  return volume;
+}
+
 Eigen::AlignedBox3d OccupancyMap::Bounds() const {
   Eigen::AlignedBox3d box;  // empty
   if (tree_->size() == 0) return box;

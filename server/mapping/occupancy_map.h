@@ -107,6 +107,7 @@ class OccupancyMap {
 
   size_t size() const;         // tree nodes (inner and leaves)
   size_t MemoryBytes() const;  // OctoMap's estimate of the tree's memory
+  double KnownVolume() const;  // m^3 of free or occupied leaves (what memory per m^3 divides by)
   // Bounds of the known (free or occupied) space; empty when the map is.
   Eigen::AlignedBox3d Bounds() const;
   // Occupied leaves (pruned ones are bigger than the resolution), in tree order.

@@ -6,6 +6,7 @@
 #include <set>
 #include <string>
 
+#include "common/thread_priority.h"
 #include "common/time_util.h"
 #include "server/recognition/keyframe_recognition.h"
 
@@ -99,6 +100,7 @@ void ObjectMapper::RecordError(const Status& status) {
 }
 
 void ObjectMapper::Run(bool restore) {
+  LowerCurrentThreadPriority();  // background work: tracking first when cores are short
   if (restore) Restore();
   for (;;) {
     std::optional<Event> event = queue_.TryPop();

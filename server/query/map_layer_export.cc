@@ -1,5 +1,7 @@
 #include "server/query/map_layer_export.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <string>
@@ -14,6 +16,8 @@ namespace semmap {
 namespace {
 
 using PlacedClouds = std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>>;
+
+constexpr std::array<uint8_t, 3> kDefaultObjectColour = {255, 128, 0};
 
 PlacedClouds Placed(const std::vector<StoredKeyframeCloud>& keyframes) {
   PlacedClouds out;
@@ -97,6 +101,42 @@ StatusOr<PointCloudMap> Cloud(MapStore& store, const MapInfo& map, const ExportR
   return PointCloudMap::Build({{&merged, Eigen::Isometry3d::Identity()}}, options);
 }
 
+struct MapObjects {
+  std::vector<ObjectInstance> instances;
+  std::map<int64_t, std::array<uint8_t, 3>> colours;  // by type id
+};
+
+StatusOr<MapObjects> LoadObjects(MapStore& store, const MapInfo& map) {
+  MapObjects out;
+  SEMMAP_ASSIGN_OR_RETURN(out.instances, store.FindObjectInstances(map.id, ""));
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<ObjectType> types,
+                          store.ListObjectTypes(map.id, /*with_views=*/false));
+  for (const ObjectType& t : types) out.colours[t.id] = t.rgb;
+  return out;
+}
+
+// An object's box drawn into the cloud: points every 5 mm along its 12 edges, in its type's
+// colour (boxes at least 5 cm on a side, so small objects stay visible).
+void AppendBox(const ObjectInstance& o, const std::array<uint8_t, 3>& rgb,
+               std::vector<CloudPoint>& points) {
+  const Eigen::Vector3d half = 0.5 * o.extent.cwiseMax(Eigen::Vector3d::Constant(0.05));
+  const Eigen::Vector3d lo = o.position - half, hi = o.position + half;
+  for (int axis = 0; axis < 3; ++axis) {
+    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+    const int steps = std::max(1, static_cast<int>((hi[axis] - lo[axis]) / 0.005));
+    for (int corner = 0; corner < 4; ++corner) {
+      Eigen::Vector3d p;
+      p[a] = (corner & 1) ? hi[a] : lo[a];
+      p[b] = (corner & 2) ? hi[b] : lo[b];
+      for (int i = 0; i <= steps; ++i) {
+        p[axis] = lo[axis] + (hi[axis] - lo[axis]) * i / steps;
+        points.push_back({static_cast<float>(p.x()), static_cast<float>(p.y()),
+                          static_cast<float>(p.z()), rgb[0], rgb[1], rgb[2]});
+      }
+    }
+  }
+}
+
 StatusOr<std::string> RenderPng(MapStore& store, const MapInfo& map, const ExportRequest& request,
                                 const MapLayerOptions& layers) {
   MapRenderOptions options;
@@ -142,6 +182,16 @@ StatusOr<std::string> RenderPng(MapStore& store, const MapInfo& map, const Expor
   if (!matched) {
     return NotFoundError("map '" + map.name + "' has no session '" + request.session + "'");
   }
+  SEMMAP_ASSIGN_OR_RETURN(MapObjects objects, LoadObjects(store, map));
+  for (const ObjectInstance& o : objects.instances) {
+    RenderObject object;
+    object.label = o.label;
+    object.centre = o.position;
+    object.extent = o.extent;
+    const auto colour = objects.colours.find(o.type_id);
+    if (colour != objects.colours.end()) object.rgb = colour->second;
+    input.objects.push_back(std::move(object));
+  }
   SEMMAP_ASSIGN_OR_RETURN(std::vector<LinkRecord> links, store.ListLinks(map.id));
   for (const LinkRecord& link : links) {
     if (link.kind != LinkKind::kLoop) continue;
@@ -176,8 +226,22 @@ StatusOr<ExportResult> BuildLayerExport(MapStore& store, const ExportRequest& re
   } else if (request.format == "ply" || request.format == "pcd") {
     result.media_type = request.format == "ply" ? "application/x-ply" : "application/x-pcd";
     SEMMAP_ASSIGN_OR_RETURN(PointCloudMap cloud, Cloud(store, map, request, layers));
-    SEMMAP_ASSIGN_OR_RETURN(result.bytes, request.format == "ply" ? cloud.ToPly(!request.ascii)
-                                                                  : cloud.ToPcd(!request.ascii));
+    if (request.format == "ply") {
+      // The map's objects appear as boxes in their colours (PCD stays the plain cloud).
+      SEMMAP_ASSIGN_OR_RETURN(MapObjects objects, LoadObjects(store, map));
+      if (!objects.instances.empty()) {
+        std::vector<CloudPoint> points = cloud.points();
+        for (const ObjectInstance& o : objects.instances) {
+          const auto colour = objects.colours.find(o.type_id);
+          AppendBox(o, colour != objects.colours.end() ? colour->second : kDefaultObjectColour,
+                    points);
+        }
+        cloud = PointCloudMap::FromPoints(std::move(points), cloud.options());
+      }
+      SEMMAP_ASSIGN_OR_RETURN(result.bytes, cloud.ToPly(!request.ascii));
+    } else {
+      SEMMAP_ASSIGN_OR_RETURN(result.bytes, cloud.ToPcd(!request.ascii));
+    }
   } else if (request.format == "png") {
     result.media_type = "image/png";
     SEMMAP_ASSIGN_OR_RETURN(result.bytes, RenderPng(store, map, request, layers));

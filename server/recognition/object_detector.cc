@@ -37,19 +37,18 @@ StatusOr<bool> VerifyView(const ModelView& view, const FrameFeatures& keyframe,
     src.push_back(view.features.keypoints[static_cast<size_t>(m.queryIdx)].pt);
     dst.push_back(keyframe.keypoints[static_cast<size_t>(m.trainIdx)].pt);
   }
-  cv::Mat H;
+  cv::Matx33d Hm;
   std::vector<uchar> mask;
   try {
-    H = cv::findHomography(src, dst, cv::RANSAC, options.ransac_reprojection_px, mask,
-                           options.ransac_max_iterations, 0.995);
+    const cv::Mat H = cv::findHomography(src, dst, cv::RANSAC, options.ransac_reprojection_px, mask,
+                                         options.ransac_max_iterations, 0.995);
+    if (H.empty() || H.rows != 3 || H.cols != 3) return false;
+    H.convertTo(cv::Mat(Hm, false), CV_64F);
   } catch (const cv::Exception& e) {
     return InternalError(std::string("object homography: ") + e.what());
   }
-  if (H.empty() || H.rows != 3 || H.cols != 3) return false;
   const int inliers = static_cast<int>(std::count(mask.begin(), mask.end(), uchar{1}));
   if (inliers < options.min_inliers) return false;
-  cv::Matx33d Hm;
-  H.convertTo(cv::Mat(Hm, false), CV_64F);
   std::array<cv::Point2f, 4> outline{};
   if (!CheckProjectedOutline(Hm, view.width, view.height, options, &outline).ok()) return false;
 

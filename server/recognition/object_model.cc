@@ -93,9 +93,12 @@ Status ObjectRecognitionOptions::Validate() const {
 
 namespace {
 
-// Features of `grey` (the photo shrunk by `shrink`, photo pixels per image pixel) with
+// Below this ORB finds nothing (its patches are 31 px) and OpenCV may fail outright.
+constexpr int kMinPhotoSidePx = 32;
+
+// Features of `grey` (the photo shrunk by `scale`: photo pixels per image pixel along x, y) with
 // keypoints in photo pixels, appended to `out`.
-Status AppendScale(const cv::Mat& grey, double shrink, int budget, int scale_index,
+Status AppendScale(const cv::Mat& grey, cv::Point2d scale, int budget, int scale_index,
                    const ObjectRecognitionOptions& options, FrameFeatures* out) {
   // The extractor wants a calibration of the image's size; a photo has none, and only the 2D
   // keypoints are used, so any valid pinhole will do.
@@ -113,10 +116,10 @@ Status AppendScale(const cv::Mat& grey, double shrink, int budget, int scale_ind
   SEMMAP_ASSIGN_OR_RETURN(const FeatureExtractor extractor,
                           FeatureExtractor::Create(features, camera));
   SEMMAP_ASSIGN_OR_RETURN(FrameFeatures f, extractor.Extract(grey, cv::Mat(), 1.0));
-  const float s = static_cast<float>(shrink);
   for (cv::KeyPoint& k : f.keypoints) {
-    k.pt *= s;
-    k.size *= s;
+    k.pt.x = static_cast<float>(k.pt.x * scale.x);
+    k.pt.y = static_cast<float>(k.pt.y * scale.y);
+    k.size = static_cast<float>(k.size * 0.5 * (scale.x + scale.y));
     k.octave += scale_index * features.orb_levels;  // informative: the level over all scales
     out->keypoints.push_back(k);
   }
@@ -136,6 +139,13 @@ StatusOr<ModelView> BuildModelView(const cv::Mat& photo, const ObjectRecognition
   if (photo.depth() != CV_8U ||
       (photo.channels() != 1 && photo.channels() != 3 && photo.channels() != 4)) {
     return InvalidArgumentError("the object photo must be 8-bit grey, BGR or BGRA");
+  }
+  if (std::min(photo.cols, photo.rows) < kMinPhotoSidePx) {
+    return InvalidArgumentError(
+        "the " + std::to_string(photo.cols) + "x" + std::to_string(photo.rows) +
+        " photo is too small: an object "
+        "photo needs at least " +
+        std::to_string(kMinPhotoSidePx) + " px on each side; use a larger photo");
   }
   ModelView view;
   view.width = photo.cols;
@@ -166,8 +176,9 @@ StatusOr<ModelView> BuildModelView(const cv::Mat& photo, const ObjectRecognition
       } else {
         cv::resize(grey, scaled, size, 0, 0, cv::INTER_AREA);  // area: no aliasing
       }
-      SEMMAP_RETURN_IF_ERROR(AppendScale(scaled, static_cast<double>(photo.cols) / size.width,
-                                         budget, i, options, &view.features));
+      const cv::Point2d scale(static_cast<double>(photo.cols) / size.width,
+                              static_cast<double>(photo.rows) / size.height);
+      SEMMAP_RETURN_IF_ERROR(AppendScale(scaled, scale, budget, i, options, &view.features));
       shrink *= 2.0;
       budget = std::max(options.min_scale_features, budget / 2);
     }

@@ -98,8 +98,8 @@ struct ObjectModel {
 };
 
 // `photo`: CV_8UC1 grey, CV_8UC3 BGR or CV_8UC4 BGRA, any size. INVALID_ARGUMENT with a reason
-// a user can act on for an empty image, another pixel type, or fewer than min_model_features
-// features; INTERNAL when OpenCV fails.
+// a user can act on for an empty image, another pixel type, a side under 32 px, or fewer than
+// min_model_features features; INTERNAL when OpenCV fails.
 StatusOr<ModelView> BuildModelView(const cv::Mat& photo, const ObjectRecognitionOptions& options);
 
 // The same from encoded bytes (PNG, JPEG, anything OpenCV decodes); INVALID_ARGUMENT for bytes

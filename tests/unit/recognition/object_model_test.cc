@@ -109,6 +109,9 @@ TEST(ObjectModelTest, BadPhotosAreInvalidArgumentWithAReason) {
   // A tiny thumbnail of a textured photo, and a photo blurred past recognition.
   cv::Mat tiny, blurred;
   cv::resize(Photo(0), tiny, cv::Size(24, 32), 0, 0, cv::INTER_AREA);
+  ExpectInvalid(BuildModelView(tiny, options), "too small");
+  ExpectInvalid(BuildModelView(cv::Mat(1, 1, CV_8UC3, cv::Scalar(0, 0, 0)), options), "too small");
+  cv::resize(Photo(0), tiny, cv::Size(48, 64), 0, 0, cv::INTER_AREA);
   ExpectInvalid(BuildModelView(tiny, options), "a recognisable object needs 50");
   cv::GaussianBlur(Photo(0), blurred, cv::Size(0, 0), 12.0);
   ExpectInvalid(BuildModelView(blurred, options), "sharper, more textured or larger photo");
