@@ -27,29 +27,14 @@ while [ $# -gt 0 ]; do
     *) echo "map_bench: unknown option $1" >&2; usage ;;
   esac
 done
-for bin in "$SEMMAPD" "$SEMMAP"; do
-  [ -x "$bin" ] || { echo "map_bench: $bin missing; run 'make build'" >&2; exit 1; }
-done
-command -v jq >/dev/null || { echo "map_bench: needs jq" >&2; exit 1; }
-OUT=${OUT:-$(mktemp -d -t semmap-map-bench-XXXXXX)}
-mkdir -p "$OUT"
-OUT=$(cd "$OUT" && pwd)
-WORK=$(mktemp -d -t semmap-map-work-XXXXXX)
-cleanup() {
-  if [ -n "${SEMMAPD_PID:-}" ] && kill -0 "$SEMMAPD_PID" 2>/dev/null; then
-    kill -TERM "$SEMMAPD_PID" 2>/dev/null || true
-    wait "$SEMMAPD_PID" 2>/dev/null || true
-  fi
-  rm -rf "$WORK"
-}
-trap cleanup EXIT
+bench_setup map-bench "$SEMMAPD" "$SEMMAP"
 REPORT="$OUT/map_bench.json"
 echo '{}' >"$REPORT"
 report_set() { jq --argjson v "$2" "$1 = \$v" "$REPORT" >"$REPORT.tmp" && mv "$REPORT.tmp" "$REPORT"; }
 median() { sort -g | awk '{ v[NR] = $1 } END { if (NR == 0) print "nan"; else if (NR % 2) print v[(NR + 1) / 2]; else print (v[NR / 2] + v[NR / 2 + 1]) / 2 }'; }
 
 # ingest NAME DIR LAYERS RUN: fresh server (map layers on|off), one ingest at max rate; leaves the
-# CLI's JSON in $WORK/NAME-LAYERS-RUN.json and the server running for exports (stop_server).
+# CLI's JSON in $WORK/NAME-LAYERS-RUN.json and the server running for exports (stop_semmapd).
 ingest() {
   local name=$1 dir=$2 layers=$3 run=$4 data="$WORK/db-$1-$3-$4"
   mkdir -p "$data"
@@ -57,11 +42,6 @@ ingest() {
   "$SEMMAP" --server "$SEMMAPD_ADDR" --json ingest "$dir" --map "$name" \
     >"$WORK/$name-$layers-$run.json"
   LAST_LOG="$data/semmapd.log"
-}
-stop_server() {
-  kill -TERM "$SEMMAPD_PID" 2>/dev/null || true
-  wait "$SEMMAPD_PID" 2>/dev/null || true
-  SEMMAPD_PID=""
 }
 stage() { jq -r ".stages.$2.$3 // 0" "$1"; }
 
@@ -76,7 +56,7 @@ bench_sequence() {
         export_all "$name"
         cp "$LAST_LOG" "$OUT/$name-semmapd.log"
       fi
-      stop_server
+      stop_semmapd
     done
   done
   local f=("$WORK/$name"-on-*.json) g=("$WORK/$name"-off-*.json)

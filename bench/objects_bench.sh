@@ -30,20 +30,7 @@ done
 TEDDY="$DATA/tum_fr3_teddy_200"
 CAFE="$DATA/kinect_cafe_391_nogt"
 [ -d "$TEDDY" ] || { echo "objects_bench: needs $TEDDY (skipped)"; exit 0; }
-for bin in "$SEMMAPD" "$SEMMAP" "$SYNTH"; do
-  [ -x "$bin" ] || { echo "objects_bench: $bin missing; run 'make build'" >&2; exit 1; }
-done
-OUT=${OUT:-$(mktemp -d -t semmap-objects-bench-XXXXXX)}
-mkdir -p "$OUT"
-WORK=$(mktemp -d -t semmap-objects-work-XXXXXX)
-cleanup() {
-  if [ -n "${SEMMAPD_PID:-}" ] && kill -0 "$SEMMAPD_PID" 2>/dev/null; then
-    kill -TERM "$SEMMAPD_PID" 2>/dev/null || true
-    wait "$SEMMAPD_PID" 2>/dev/null || true
-  fi
-  rm -rf "$WORK"
-}
-trap cleanup EXIT
+bench_setup objects-bench "$SEMMAPD" "$SEMMAP" "$SYNTH"
 
 photos=()
 for seed in $(seq 1 13); do
@@ -73,7 +60,7 @@ run() {
     "${S[@]}" --json ingest "$CAFE" --map cafe >/dev/null
     "${S[@]}" --json where teddy --map cafe >"$OUT/cafe-where.json"
   fi
-  kill -TERM "$SEMMAPD_PID"; wait "$SEMMAPD_PID" || true; SEMMAPD_PID=""
+  stop_semmapd
   cp "$db/semmapd.log" "$OUT/$name-semmapd.log"
 }
 

@@ -19,3 +19,32 @@ start_semmapd() {
   cat "$data_dir/semmapd.log" >&2
   return 1
 }
+
+# bench_setup NAME BINARIES...: checks the binaries, makes $OUT (default: a kept temp dir) and
+# $WORK (a temp dir removed at exit, with any semmapd still running from start_semmapd).
+bench_setup() {
+  local name=$1 bin
+  shift
+  for bin in "$@"; do
+    [ -x "$bin" ] || { echo "$name: $bin missing; run 'make build'" >&2; exit 1; }
+  done
+  command -v jq >/dev/null || { echo "$name: needs jq" >&2; exit 1; }
+  OUT=${OUT:-$(mktemp -d -t "semmap-$name-XXXXXX")}
+  mkdir -p "$OUT"
+  OUT=$(cd "$OUT" && pwd)
+  WORK=$(mktemp -d -t "semmap-$name-work-XXXXXX")
+  trap bench_cleanup EXIT
+}
+bench_cleanup() {
+  if [ -n "${SEMMAPD_PID:-}" ] && kill -0 "$SEMMAPD_PID" 2>/dev/null; then
+    kill -TERM "$SEMMAPD_PID" 2>/dev/null || true
+    wait "$SEMMAPD_PID" 2>/dev/null || true
+  fi
+  rm -rf "$WORK"
+}
+# stop_semmapd: SIGTERM to the server start_semmapd started, and wait for it.
+stop_semmapd() {
+  kill -TERM "$SEMMAPD_PID" 2>/dev/null || true
+  wait "$SEMMAPD_PID" 2>/dev/null || true
+  SEMMAPD_PID=""
+}

@@ -66,7 +66,8 @@ MapLayerBuilder::MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerO
       writer_(writer),
       queue_(options_.queue_capacity),
       occupancy_(std::move(occupancy)),
-      last_persist_(Clock::now()) {}
+      last_persist_(Clock::now()),
+      writes_(writer, "map layers") {}
 
 MapLayerBuilder::~MapLayerBuilder() { Stop(); }
 
@@ -74,8 +75,7 @@ void MapLayerBuilder::Stop() {
   std::lock_guard stop_lock(stop_mutex_);
   queue_.Shutdown();  // the worker still drains what was queued
   if (worker_.joinable()) worker_.join();
-  std::unique_lock lock(mutex_);
-  writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
+  writes_.Wait();
 }
 
 Status MapLayerBuilder::AddKeyframeImages(int64_t session_id, int64_t seq, DecodedDepth depth,
@@ -115,8 +115,7 @@ MapLayerStats MapLayerBuilder::stats() const {
 void MapLayerBuilder::RecordError(const Status& status) {
   std::fprintf(stderr, "semmapd: map '%s' layers: %s\n", map_name_.c_str(),
                status.ToString().c_str());
-  std::lock_guard lock(mutex_);
-  if (error_.ok()) error_ = status.WithContext("map layers");
+  writes_.Record(status);
 }
 
 void MapLayerBuilder::Run(bool restore) {
@@ -144,10 +143,7 @@ void MapLayerBuilder::Run(bool restore) {
       const auto& flush = std::get<FlushRequest>(*event);
       if (rebuild_needed_) Rebuild();
       if (dirty_) Persist();
-      std::unique_lock lock(mutex_);
-      writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
-      flush.done->set_value(error_);
-      error_ = OkStatus();
+      flush.done->set_value(writes_.WaitAndTakeError());
     }
   }
   if (rebuild_needed_) Rebuild();
@@ -294,25 +290,12 @@ void MapLayerBuilder::Persist() {
     stats_.cloud_blob_bytes = pcd->size();
     stats_.known_volume_m3 = known_volume;
     ++stats_.persists;
-    ++pending_writes_;
   }
   WriteBatch batch;
   const int64_t now = NowUnixNs();
   batch.blobs.push_back({map_id_, kOccupancyBlobKind, std::move(ot).value(), now});
   batch.blobs.push_back({map_id_, kCloudBlobKind, std::move(pcd).value(), now});
-  const Status submitted =
-      writer_->Submit(std::move(batch), [this](const Status& status, const WriteResult&) {
-        if (!status.ok()) RecordError(status.WithContext("writing map blobs"));
-        std::lock_guard lock(mutex_);
-        --pending_writes_;
-        writes_done_.notify_all();
-      });
-  if (!submitted.ok()) {
-    RecordError(submitted.WithContext("writing map blobs"));
-    std::lock_guard lock(mutex_);
-    --pending_writes_;
-    writes_done_.notify_all();
-  }
+  writes_.Submit(std::move(batch));
   std::lock_guard lock(mutex_);
   persist_ms_.Add(MillisecondsSince(t0));
 }

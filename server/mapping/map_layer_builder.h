@@ -18,7 +18,6 @@
 #pragma once
 
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
 #include <future>
 #include <map>
@@ -39,6 +38,7 @@
 #include "server/mapping/occupancy_map.h"
 #include "server/mapping/point_cloud_map.h"
 #include "server/sensor/image_decoding.h"
+#include "storage/pending_writes.h"
 #include "storage/storage_writer.h"
 
 namespace semmap {
@@ -151,14 +151,12 @@ class MapLayerBuilder {
   bool dirty_ = false;  // layers changed since the last persist
   std::chrono::steady_clock::time_point last_persist_;
 
-  mutable std::mutex mutex_;  // stats_, error_, latency recorders
+  PendingWrites writes_;      // blob writes, and the errors Flush reports
+  mutable std::mutex mutex_;  // stats_, latency recorders
   MapLayerStats stats_;
   LatencyStats insert_ms_{"map_insert"};
   LatencyStats rebuild_ms_{"map_rebuild"};
   LatencyStats persist_ms_{"map_persist"};
-  Status error_;
-  std::condition_variable writes_done_;
-  size_t pending_writes_ = 0;
 
   std::mutex stop_mutex_;
   std::thread worker_;

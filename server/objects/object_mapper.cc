@@ -42,7 +42,8 @@ ObjectMapper::ObjectMapper(int64_t map_id, ObjectMapperOptions options,
       options_(std::move(options)),
       catalog_(catalog),
       writer_(writer),
-      queue_(options_.queue_capacity) {}
+      queue_(options_.queue_capacity),
+      writes_(writer, "objects") {}
 
 ObjectMapper::~ObjectMapper() { Stop(); }
 
@@ -50,8 +51,7 @@ void ObjectMapper::Stop() {
   std::lock_guard stop_lock(stop_mutex_);
   queue_.Shutdown();
   if (worker_.joinable()) worker_.join();
-  std::unique_lock lock(mutex_);
-  writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
+  writes_.Wait();
 }
 
 Status ObjectMapper::AddKeyframe(int64_t session_id, int64_t seq, int64_t stamp_ns,
@@ -95,8 +95,7 @@ ObjectMapperStats ObjectMapper::stats() const {
 void ObjectMapper::RecordError(const Status& status) {
   std::fprintf(stderr, "semmapd: objects of map %lld: %s\n", static_cast<long long>(map_id_),
                status.ToString().c_str());
-  std::lock_guard lock(mutex_);
-  if (error_.ok()) error_ = status.WithContext("objects");
+  writes_.Record(status);
 }
 
 void ObjectMapper::Run(bool restore) {
@@ -118,10 +117,7 @@ void ObjectMapper::Run(bool restore) {
     } else {
       const auto& flush = std::get<FlushRequest>(*event);
       if (dirty_) FuseAndWrite();
-      std::unique_lock lock(mutex_);
-      writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
-      flush.done->set_value(error_);
-      error_ = OkStatus();
+      flush.done->set_value(writes_.WaitAndTakeError());
     }
   }
   for (auto& [session_id, recent] : recent_) {
@@ -228,7 +224,7 @@ void ObjectMapper::Recognise(const KeyframeItem& target, const KeyframeItem* bef
   const size_t accepted = batch.observations.size();
   if (accepted > 0) {
     dirty_ = true;
-    Submit(std::move(batch));
+    writes_.Submit(std::move(batch));
   }
   std::lock_guard lock(mutex_);
   ++stats_.keyframes_searched;
@@ -262,31 +258,11 @@ void ObjectMapper::FuseAndWrite() {
   const size_t count = instances->size();
   WriteBatch batch;
   batch.instances.emplace_back(map_id_, std::move(instances).value());
-  Submit(std::move(batch));
+  writes_.Submit(std::move(batch));
   std::lock_guard lock(mutex_);
   ++stats_.fusions;
   stats_.instances = count;
   fuse_ms_.Add(MillisecondsSince(t0));
-}
-
-void ObjectMapper::Submit(WriteBatch batch) {
-  {
-    std::lock_guard lock(mutex_);
-    ++pending_writes_;
-  }
-  const Status submitted =
-      writer_->Submit(std::move(batch), [this](const Status& status, const WriteResult&) {
-        if (!status.ok()) RecordError(status.WithContext("writing objects"));
-        std::lock_guard lock(mutex_);
-        --pending_writes_;
-        writes_done_.notify_all();
-      });
-  if (!submitted.ok()) {
-    RecordError(submitted.WithContext("writing objects"));
-    std::lock_guard lock(mutex_);
-    --pending_writes_;
-    writes_done_.notify_all();
-  }
 }
 
 }  // namespace semmap

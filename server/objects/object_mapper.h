@@ -16,7 +16,6 @@
 #pragma once
 
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <future>
@@ -38,12 +37,13 @@
 #include "common/status.h"
 #include "server/objects/object_catalog.h"
 #include "server/recognition/object_fusion.h"
+#include "storage/pending_writes.h"
 #include "storage/storage_writer.h"
 
 namespace semmap {
 
 struct ObjectMapperOptions {
-  bool enabled = true;  // false: keyframes are not searched for objects
+  bool enabled = true;   // false: keyframes are not searched for objects
   bool apply_xi = true;  // the neighbour check (false: every verified detection is kept)
   ObjectFusionOptions fusion;
   size_t queue_capacity = 64;
@@ -53,15 +53,15 @@ struct ObjectMapperOptions {
 
 struct ObjectMapperStats {
   uint64_t keyframes_searched = 0;
-  uint64_t detections = 0;       // verified geometrically
+  uint64_t detections = 0;  // verified geometrically
   uint64_t rejected_by_xi = 0;
-  uint64_t observations = 0;     // accepted (stored)
+  uint64_t observations = 0;  // accepted (stored)
   uint64_t restored_observations = 0;
   uint64_t fusions = 0;
-  size_t instances = 0;          // after the last fusion
-  size_t models = 0;             // object types the last keyframe was searched for
+  size_t instances = 0;  // after the last fusion
+  size_t models = 0;     // object types the last keyframe was searched for
   size_t queue_high_water = 0;
-  LatencySummary recognise_ms;   // per keyframe (detection + neighbour check)
+  LatencySummary recognise_ms;  // per keyframe (detection + neighbour check)
   LatencySummary fuse_ms;
 };
 
@@ -78,7 +78,8 @@ class ObjectMapper {
   // A keyframe of a session, after its own write was submitted (observations name it by
   // (session, seq)). Block only while the queue is full; UNAVAILABLE after Stop().
   Status AddKeyframe(int64_t session_id, int64_t seq, int64_t stamp_ns,
-                     std::shared_ptr<const FrameFeatures> features, const CameraCalibration& camera);
+                     std::shared_ptr<const FrameFeatures> features,
+                     const CameraCalibration& camera);
   // The session sends no more keyframes: its last one is decided now.
   Status EndSession(int64_t session_id);
   // Keyframe poses, as MapLayerBuilder takes them.
@@ -118,7 +119,6 @@ class ObjectMapper {
   // Searches `target` with its neighbours (either may be null).
   void Recognise(const KeyframeItem& target, const KeyframeItem* before, const KeyframeItem* after);
   void FuseAndWrite();
-  void Submit(WriteBatch batch);
   void RecordError(const Status& status);
 
   const int64_t map_id_;
@@ -133,13 +133,11 @@ class ObjectMapper {
   std::vector<ObjectObservation> observations_;  // every accepted one of the map
   bool dirty_ = false;  // observations or poses changed since the last fusion
 
+  PendingWrites writes_;  // observation and instance writes, and the errors Flush reports
   mutable std::mutex mutex_;
   ObjectMapperStats stats_;
   LatencyStats recognise_ms_{"recognise"};
   LatencyStats fuse_ms_{"fuse_objects"};
-  Status error_;
-  std::condition_variable writes_done_;
-  size_t pending_writes_ = 0;
 
   std::mutex stop_mutex_;
   std::thread worker_;

@@ -94,7 +94,8 @@ SlamBackend::SlamBackend(int64_t map_id, SlamBackendOptions options,
       options_(std::move(options)),
       vocabulary_(std::move(vocabulary)),
       writer_(writer),
-      queue_(options_.queue_capacity) {}
+      queue_(options_.queue_capacity),
+      writes_(writer, "slam back end") {}
 
 Status SlamBackend::Restore(const MapSnapshot& snapshot) {
   for (const SessionInfo& s : snapshot.sessions) sessions_[s.id].camera = s.camera;
@@ -214,8 +215,7 @@ void SlamBackend::Run() {
     }
   }
   Flush();
-  std::unique_lock lock(mutex_);
-  writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
+  writes_.Wait();
 }
 
 void SlamBackend::HandleFrame(const FrameAnchorEvent& event) {
@@ -458,37 +458,14 @@ bool SlamBackend::OptimiseAndCorrect(bool check_new_loop) {
 
 void SlamBackend::Flush() {
   if (pending_.empty()) return;
-  {
-    std::lock_guard lock(mutex_);
-    ++pending_writes_;
-  }
-  Status submitted =
-      writer_->Submit(std::move(pending_), [this](const Status& status, const WriteResult&) {
-        std::lock_guard lock(mutex_);
-        --pending_writes_;
-        if (!status.ok() && write_error_.ok()) write_error_ = status.WithContext("slam back end");
-        writes_done_.notify_all();
-      });
+  writes_.Submit(std::move(pending_));
   pending_ = WriteBatch{};
-  if (!submitted.ok()) {
-    std::lock_guard lock(mutex_);
-    --pending_writes_;
-    if (write_error_.ok()) write_error_ = submitted.WithContext("slam back end");
-    writes_done_.notify_all();
-  }
 }
 
 void SlamBackend::HandleDrain(const DrainRequest& request) {
   if (deferred_loops_ > 0) OptimiseAndCorrect();  // a finished session gets its final poses
   Flush();
-  Status status;
-  {
-    std::unique_lock lock(mutex_);
-    writes_done_.wait(lock, [&] { return pending_writes_ == 0; });
-    status = write_error_;
-    write_error_ = OkStatus();
-  }
-  request.done->set_value(status);
+  request.done->set_value(writes_.WaitAndTakeError());
 }
 
 }  // namespace semmap

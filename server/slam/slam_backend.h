@@ -30,6 +30,7 @@
 #include "server/slam/loop_verifier.h"
 #include "server/slam/place_database.h"
 #include "server/slam/pose_graph.h"
+#include "storage/pending_writes.h"
 #include "storage/storage_writer.h"
 
 namespace semmap {
@@ -224,15 +225,13 @@ class SlamBackend {
   std::map<int64_t, std::vector<FrameAnchor>> anchors_;  // by session, in seq order
   int deferred_loops_ = 0;  // consistent loops added since the last optimisation
 
-  mutable std::mutex mutex_;  // sessions_, stats_, write bookkeeping
+  PendingWrites writes_;      // the worker's batches, and the errors Drain reports
+  mutable std::mutex mutex_;  // sessions_, stats_
   // Entries are never erased: graph keyframes point at their session's camera.
   std::map<int64_t, SessionState> sessions_;
   SlamBackendStats stats_;
   LatencyStats keyframe_ms_{"backend_keyframe"};
   LatencyStats optimise_ms_{"optimise"};
-  std::condition_variable writes_done_;
-  size_t pending_writes_ = 0;
-  Status write_error_;
 
   std::thread worker_;
 };

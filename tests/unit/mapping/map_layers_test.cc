@@ -33,6 +33,7 @@
 #include "tests/testing/synth/sequence_writer.h"
 #include "tests/testing/synth/trajectory.h"
 #include "tests/testing/temp_dir.h"
+#include "tests/testing/test_store.h"
 
 namespace semmap {
 namespace {
@@ -124,32 +125,20 @@ class MapLayersTest : public ::testing::Test {
  protected:
   void SetUp() override {
     options_.persist_interval_s = 3600;  // only Flush persists: deterministic blob contents
-    StatusOr<std::unique_ptr<SqliteMapStore>> write = SqliteMapStore::Open(db_, {});
-    ASSERT_TRUE(write.ok()) << write.status().ToString();
-    StatusOr<std::unique_ptr<SqliteMapStore>> read = SqliteMapStore::Open(db_, {});
-    ASSERT_TRUE(read.ok()) << read.status().ToString();
-    read_ = std::move(read).value();
-    StatusOr<MapInfo> map = (*write)->GetOrCreateMap("room");
-    ASSERT_TRUE(map.ok());
-    map_ = *map;
-    SessionInfo session;
-    session.map_id = map_.id;
-    session.name = "lap";
-    session.mode = SessionMode::kRgbd;
-    session.camera = SharedRenderer().camera();
-    session.depth_scale = synth::kDepthScale;
-    StatusOr<SessionInfo> created = (*write)->CreateSession(session);
-    ASSERT_TRUE(created.ok()) << created.status().ToString();
-    session_ = *created;
-    StatusOr<std::unique_ptr<StorageWriter>> writer =
-        StorageWriter::Start(std::move(write).value(), {});
-    ASSERT_TRUE(writer.ok());
-    writer_ = std::move(writer).value();
+    StatusOr<std::unique_ptr<testing::TestStore>> store =
+        testing::MakeTestStore("room", "lap", SharedRenderer().camera(), synth::kDepthScale);
+    ASSERT_TRUE(store.ok()) << store.status().ToString();
+    store_ = std::move(store).value();
+    map_ = store_->map;
+    session_ = store_->session;
+    read_ = store_->read.get();
+    writer_ = store_->writer.get();
+    db_ = store_->db_path;
   }
 
   std::unique_ptr<MapLayerBuilder> StartBuilder(bool restore) {
     StatusOr<std::unique_ptr<MapLayerBuilder>> builder =
-        MapLayerBuilder::Start(map_.id, map_.name, options_, writer_.get(), restore);
+        MapLayerBuilder::Start(map_.id, map_.name, options_, writer_, restore);
     EXPECT_TRUE(builder.ok()) << builder.status().ToString();
     return builder.ok() ? std::move(builder).value() : nullptr;
   }
@@ -234,13 +223,13 @@ class MapLayersTest : public ::testing::Test {
     sqlite3_close(db);
   }
 
-  testing::TempDir dir_;
-  const std::string db_ = dir_.File("semmap.db");
+  std::unique_ptr<testing::TestStore> store_;
+  std::string db_;
   MapLayerOptions options_;
   MapInfo map_;
   SessionInfo session_;
-  std::unique_ptr<SqliteMapStore> read_;
-  std::unique_ptr<StorageWriter> writer_;
+  SqliteMapStore* read_ = nullptr;
+  StorageWriter* writer_ = nullptr;
 };
 
 TEST(MapLayerOptionsTest, Validate) {
@@ -406,7 +395,7 @@ TEST_F(MapLayersTest, ExportsReadBackWithOctoMapAndPcl) {
       request.ascii = ascii;
       StatusOr<ExportResult> result = BuildExport(*read_, request, options_);
       ASSERT_TRUE(result.ok()) << result.status().ToString();
-      const std::string path = dir_.File("cloud." + format);
+      const std::string path = store_->dir.File("cloud." + format);
       {
         std::ofstream out(path, std::ios::binary);
         out << result->bytes;

@@ -3,6 +3,8 @@
 // the observation is stored in the keyframe's frame, the instance lands at the book's front
 // face, moves with its keyframes after a pose-graph correction, survives a restart of the
 // mapper, and goes away with its type.
+#include "server/objects/object_mapper.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -12,11 +14,10 @@
 #include <vector>
 
 #include "server/objects/object_catalog.h"
-#include "server/objects/object_mapper.h"
 #include "storage/sqlite/sqlite_map_store.h"
 #include "storage/storage_writer.h"
 #include "tests/testing/synth/object_template.h"
-#include "tests/testing/temp_dir.h"
+#include "tests/testing/test_store.h"
 #include "tests/unit/recognition/recognition_scene.h"
 
 namespace semmap {
@@ -46,26 +47,15 @@ EncodedImage Photo(const synth::NamedObject& object) {
 class ObjectMapperTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    StatusOr<std::unique_ptr<SqliteMapStore>> write = SqliteMapStore::Open(db_, {});
-    StatusOr<std::unique_ptr<SqliteMapStore>> read = SqliteMapStore::Open(db_, {});
-    ASSERT_TRUE(write.ok() && read.ok());
-    read_ = std::move(read).value();
-    StatusOr<MapInfo> map = (*write)->GetOrCreateMap("room");
-    ASSERT_TRUE(map.ok());
-    map_ = *map;
-    SessionInfo session;
-    session.map_id = map_.id;
-    session.name = "walk";
-    session.mode = SessionMode::kRgbd;
-    session.camera = RoomCamera();
-    StatusOr<SessionInfo> created = (*write)->CreateSession(session);
-    ASSERT_TRUE(created.ok());
-    session_ = *created;
-    StatusOr<std::unique_ptr<StorageWriter>> writer =
-        StorageWriter::Start(std::move(write).value(), {});
-    ASSERT_TRUE(writer.ok());
-    writer_ = std::move(writer).value();
-    StatusOr<std::unique_ptr<ObjectCatalog>> catalog = ObjectCatalog::Load(writer_.get(), {});
+    StatusOr<std::unique_ptr<testing::TestStore>> store =
+        testing::MakeTestStore("room", "walk", RoomCamera(), 5000);
+    ASSERT_TRUE(store.ok()) << store.status().ToString();
+    store_ = std::move(store).value();
+    map_ = store_->map;
+    session_ = store_->session;
+    read_ = store_->read.get();
+    writer_ = store_->writer.get();
+    StatusOr<std::unique_ptr<ObjectCatalog>> catalog = ObjectCatalog::Load(writer_, {});
     ASSERT_TRUE(catalog.ok()) << catalog.status().ToString();
     catalog_ = std::move(catalog).value();
 
@@ -94,7 +84,7 @@ class ObjectMapperTest : public ::testing::Test {
 
   std::unique_ptr<ObjectMapper> StartMapper(bool restore) {
     StatusOr<std::unique_ptr<ObjectMapper>> mapper =
-        ObjectMapper::Start(map_.id, {}, catalog_.get(), writer_.get(), restore);
+        ObjectMapper::Start(map_.id, {}, catalog_.get(), writer_, restore);
     EXPECT_TRUE(mapper.ok()) << mapper.status().ToString();
     return mapper.ok() ? std::move(mapper).value() : nullptr;
   }
@@ -109,7 +99,8 @@ class ObjectMapperTest : public ::testing::Test {
                                    RoomCamera())
                       .ok());
       ASSERT_TRUE(
-          mapper.SetKeyframePoses({{session_.id, seq, offset * keyframes_[i].T_world_camera}}, false)
+          mapper
+              .SetKeyframePoses({{session_.id, seq, offset * keyframes_[i].T_world_camera}}, false)
               .ok());
     }
     ASSERT_TRUE(mapper.EndSession(session_.id).ok());
@@ -129,10 +120,9 @@ class ObjectMapperTest : public ::testing::Test {
     return found.ok() ? *found : std::vector<ObjectInstance>{};
   }
 
-  testing::TempDir dir_;
-  const std::string db_ = dir_.File("semmap.db");
-  std::unique_ptr<SqliteMapStore> read_;
-  std::unique_ptr<StorageWriter> writer_;
+  std::unique_ptr<testing::TestStore> store_;
+  SqliteMapStore* read_ = nullptr;
+  StorageWriter* writer_ = nullptr;
   std::unique_ptr<ObjectCatalog> catalog_;
   MapInfo map_;
   SessionInfo session_;
@@ -173,10 +163,10 @@ TEST_F(ObjectMapperTest, CatalogRegistersListsAndRemovesTypes) {
   EXPECT_EQ(featureless.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(featureless.message().find("features"), std::string::npos) << featureless.ToString();
 
-  EXPECT_EQ(catalog_->ModelsFor(map_.id)->models.size(), 2u);  // global + the map's
+  EXPECT_EQ(catalog_->ModelsFor(map_.id)->models.size(), 2u);      // global + the map's
   EXPECT_EQ(catalog_->ModelsFor(map_.id + 1)->models.size(), 1u);  // global only
   // A catalog loaded from the store knows the same types (a restarted server).
-  StatusOr<std::unique_ptr<ObjectCatalog>> reloaded = ObjectCatalog::Load(writer_.get(), {});
+  StatusOr<std::unique_ptr<ObjectCatalog>> reloaded = ObjectCatalog::Load(writer_, {});
   ASSERT_TRUE(reloaded.ok());
   EXPECT_EQ((*reloaded)->ModelsFor(map_.id)->models.size(), 2u);
   EXPECT_EQ((*reloaded)->ModelsFor(map_.id)->models[0].views[0].features.size(),
