@@ -32,7 +32,10 @@ struct Config {
 
 ArgParser MakeParser() {
   ArgParser p;
-  p.AddFlag("trajectory", "KIND", "circle | figure8 | corridor | rotation | fast (default circle)");
+  p.AddFlag(
+      "trajectory", "KIND",
+      "circle | figure8 | corridor | rotation | fast | tour (the named objects, each from 1 m) "
+      "(default circle)");
   p.AddFlag("frames", "N", "number of frames (default 300; loops make one lap over them)");
   p.AddFlag("rate", "HZ", "frame rate, sets the stamps (default 30)");
   p.AddFlag("seed", "S", "scene textures, fast-motion path and noise (default 1)");
@@ -128,8 +131,12 @@ int Run(const Config& config) {
     std::cerr << "semmap-synth: " << scene.status().ToString() << "\n";
     return kExitError;
   }
+  TrajectoryOptions trajectory_options = config.trajectory_options;
+  for (const NamedObject& object : scene->objects) {  // the tour's stops
+    trajectory_options.tour_targets.push_back({object.front.Centre(), object.front.Normal()});
+  }
   StatusOr<std::vector<StampedPose>> trajectory =
-      MakeTrajectory(config.trajectory, scene->room, config.trajectory_options);
+      MakeTrajectory(config.trajectory, scene->room, trajectory_options);
   if (!trajectory.ok()) {
     std::cerr << "semmap-synth: " << trajectory.status().ToString() << "\n";
     return kExitError;

@@ -197,14 +197,72 @@ StatusOr<std::vector<StampedPose>> FastMotionTrajectory(const Eigen::AlignedBox3
   });
 }
 
+StatusOr<std::vector<StampedPose>> TourTrajectory(const Eigen::AlignedBox3d& room,
+                                                  const TrajectoryOptions& options) {
+  if (options.tour_targets.empty()) return InvalidArgumentError("a tour needs targets");
+  if (!(options.tour_distance >= 0.3 && options.tour_distance <= 5.0)) {
+    return InvalidArgumentError("tour distance must be in [0.3, 5] m");
+  }
+  const Geometry geometry = RoomGeometry(room, options);
+  // Each stop: where the camera stands (the target's horizontal normal, clamped inside the
+  // room) and the sideways direction of its step.
+  struct Stop {
+    Vector3d target, stand, side;
+  };
+  std::vector<Stop> stops;
+  for (const TrajectoryOptions::ViewTarget& t : options.tour_targets) {
+    Vector3d n(t.normal.x(), t.normal.y(), 0.0);
+    if (n.norm() < 1e-6 || !t.point.allFinite()) {
+      return InvalidArgumentError("tour targets need a finite point and a non-vertical normal");
+    }
+    n.normalize();
+    Vector3d stand = t.point + options.tour_distance * n;
+    stand.z() = geometry.centre.z();
+    const Vector3d lo = room.min() + Vector3d::Constant(0.4),
+                   hi = room.max() - Vector3d::Constant(0.4);
+    stand = stand.cwiseMax(lo).cwiseMin(hi);
+    stand.z() = geometry.centre.z();
+    stops.push_back({t.point, stand, Vector3d(-n.y(), n.x(), 0.0)});
+  }
+  const auto look = [](const Vector3d& from, const Vector3d& at, double* yaw, double* pitch) {
+    const Vector3d d = at - from;
+    *yaw = std::atan2(d.y(), d.x());
+    *pitch = std::atan2(d.z(), std::hypot(d.x(), d.y()));
+  };
+  const auto smooth = [](double u) { return u * u * (3.0 - 2.0 * u); };
+  const int n = static_cast<int>(stops.size());
+  return Generate(room, options, [&](const Geometry&, int i) {
+    // Each stop's share of the lap: 40 % stepping sideways at it, 60 % walking to the next.
+    const double u = LapFraction(options, i) * n;
+    const int k = std::min(static_cast<int>(u), n - 1);
+    const double f = u - k;
+    const Stop& a = stops[static_cast<size_t>(k)];
+    const Stop& b = stops[static_cast<size_t>((k + 1) % n)];
+    double yaw = 0, pitch = 0;
+    if (f < 0.4) {
+      const double s = std::sin(kTwoPi * f / 0.4);  // out to one side, across, back
+      const Vector3d p = a.stand + 0.15 * s * a.side;
+      look(p, a.target, &yaw, &pitch);
+      return LookingPose(p, yaw, pitch);
+    }
+    const double w = smooth((f - 0.4) / 0.6);
+    const Vector3d p = (1.0 - w) * a.stand + w * b.stand;
+    double yaw_a = 0, pitch_a = 0, yaw_b = 0, pitch_b = 0;
+    look(a.stand, a.target, &yaw_a, &pitch_a);
+    look(b.stand, b.target, &yaw_b, &pitch_b);
+    const double turn = std::remainder(yaw_b - yaw_a, kTwoPi);  // the short way round
+    return LookingPose(p, yaw_a + w * turn, (1.0 - w) * pitch_a + w * pitch_b);
+  });
+}
+
 StatusOr<TrajectoryKind> ParseTrajectoryKind(std::string_view name) {
   for (TrajectoryKind kind :
        {TrajectoryKind::kCircle, TrajectoryKind::kFigureEight, TrajectoryKind::kCorridorLoop,
-        TrajectoryKind::kPureRotation, TrajectoryKind::kFastMotion}) {
+        TrajectoryKind::kPureRotation, TrajectoryKind::kFastMotion, TrajectoryKind::kTour}) {
     if (name == TrajectoryKindName(kind)) return kind;
   }
   return InvalidArgumentError("unknown trajectory '" + std::string(name) +
-                              "' (expected circle, figure8, corridor, rotation or fast)");
+                              "' (expected circle, figure8, corridor, rotation, fast or tour)");
 }
 
 std::string_view TrajectoryKindName(TrajectoryKind kind) {
@@ -219,6 +277,8 @@ std::string_view TrajectoryKindName(TrajectoryKind kind) {
       return "rotation";
     case TrajectoryKind::kFastMotion:
       return "fast";
+    case TrajectoryKind::kTour:
+      return "tour";
   }
   return "unknown";
 }
@@ -237,6 +297,8 @@ StatusOr<std::vector<StampedPose>> MakeTrajectory(TrajectoryKind kind,
       return PureRotationTrajectory(room, options);
     case TrajectoryKind::kFastMotion:
       return FastMotionTrajectory(room, options);
+    case TrajectoryKind::kTour:
+      return TourTrajectory(room, options);
   }
   return InvalidArgumentError("unknown trajectory kind");
 }

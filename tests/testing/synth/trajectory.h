@@ -27,6 +27,14 @@ struct TrajectoryOptions {
   int64_t start_stamp_ns = 1'700'000'000'000'000'000;  // 2023-11-14, a plausible Unix stamp
   double camera_height = 1.3;                          // metres above the floor
   uint64_t seed = 0;                                   // varies the fast-motion path only
+  // The tour's stops: points to look at and the direction they face (e.g. each named object's
+  // front face), visited in order.
+  struct ViewTarget {
+    Eigen::Vector3d point = Eigen::Vector3d::Zero();
+    Eigen::Vector3d normal = Eigen::Vector3d::UnitX();
+  };
+  std::vector<ViewTarget> tour_targets;
+  double tour_distance = 1.0;  // metres from each target (horizontally)
 };
 
 // frames 1..1,000,000, rate 0 < r <= 1000 Hz, a room at least 3 x 3 x 2 m, the camera height
@@ -51,9 +59,23 @@ StatusOr<std::vector<StampedPose>> PureRotationTrajectory(const Eigen::AlignedBo
 StatusOr<std::vector<StampedPose>> FastMotionTrajectory(const Eigen::AlignedBox3d& room,
                                                         const TrajectoryOptions& options);
 
-enum class TrajectoryKind { kCircle, kFigureEight, kCorridorLoop, kPureRotation, kFastMotion };
+// A tour of options.tour_targets (at least one): at each, the camera stands tour_distance in
+// front of it (clamped 0.4 m inside the walls, at camera height) and steps 0.3 m sideways
+// while looking at it (parallax, and keyframes that all see the target); between stops it
+// walks straight, turning smoothly, and the last stop leads back to the first (a revisit).
+StatusOr<std::vector<StampedPose>> TourTrajectory(const Eigen::AlignedBox3d& room,
+                                                  const TrajectoryOptions& options);
 
-// "circle", "figure8", "corridor", "rotation", "fast".
+enum class TrajectoryKind {
+  kCircle,
+  kFigureEight,
+  kCorridorLoop,
+  kPureRotation,
+  kFastMotion,
+  kTour
+};
+
+// "circle", "figure8", "corridor", "rotation", "fast", "tour".
 StatusOr<TrajectoryKind> ParseTrajectoryKind(std::string_view name);
 std::string_view TrajectoryKindName(TrajectoryKind kind);
 StatusOr<std::vector<StampedPose>> MakeTrajectory(TrajectoryKind kind,

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/pose.h"
@@ -123,8 +124,56 @@ TEST(TrajectoryTest, FastMotionDependsOnTheSeedOnly) {
             0.05);
 }
 
+// Four stops like the default room's objects: two on walls, one low on the floor, one on the
+// desk.
+TrajectoryOptions TourOptions() {
+  TrajectoryOptions options;
+  options.tour_targets = {{Vector3d(0.7, 2.5, 1.0), Vector3d(0, -1, 0)},
+                          {Vector3d(2.4, -0.7, 0.9), Vector3d(-1, 0, 0)},
+                          {Vector3d(-1.1, -2.5, 1.5), Vector3d(0, 1, 0)},
+                          {Vector3d(-2.5, -0.5, 0.2), Vector3d(1, 0, 0)}};
+  return options;
+}
+
+TEST(TrajectoryTest, TourLooksAtEachTargetFromItsDistanceAndComesBack) {
+  const TrajectoryOptions options = TourOptions();
+  const std::vector<StampedPose> poses = Make(TrajectoryKind::kTour, options);
+  ASSERT_EQ(poses.size(), 300u);
+  const size_t per_stop = poses.size() / options.tour_targets.size();
+  for (size_t k = 0; k < options.tour_targets.size(); ++k) {
+    const Vector3d target = options.tour_targets[k].point;
+    // Through the stop's sideways step the target stays in the middle of the view.
+    for (size_t i = k * per_stop; i < k * per_stop + per_stop * 4 / 10; ++i) {
+      const Eigen::Isometry3d& T = poses[i].T_world_camera;
+      const Vector3d p = T.inverse() * target;
+      ASSERT_GT(p.z(), 0.5) << "stop " << k << " frame " << i;
+      EXPECT_LT(std::hypot(p.x(), p.y()) / p.z(), 0.01) << "stop " << k << " frame " << i;
+      const Vector3d d = target - T.translation();
+      EXPECT_NEAR(std::hypot(d.x(), d.y()), 1.0, 0.16);
+      EXPECT_TRUE(kRoom.contains(T.translation()));
+    }
+  }
+  const Eigen::Isometry3d delta =
+      poses.front().T_world_camera.inverse() * poses.back().T_world_camera;
+  EXPECT_LT(delta.translation().norm(), 0.02);
+  double max_step = 0;
+  for (size_t i = 1; i < poses.size(); ++i) {
+    max_step = std::max(
+        max_step,
+        (poses[i].T_world_camera.translation() - poses[i - 1].T_world_camera.translation()).norm());
+  }
+  EXPECT_LT(max_step, 0.1);
+  TrajectoryOptions none;
+  EXPECT_EQ(TourTrajectory(kRoom, none).status().code(), StatusCode::kInvalidArgument);
+  TrajectoryOptions vertical = TourOptions();
+  vertical.tour_targets[0].normal = Vector3d::UnitZ();
+  EXPECT_EQ(TourTrajectory(kRoom, vertical).status().code(), StatusCode::kInvalidArgument);
+}
+
 TEST(TrajectoryTest, NamesAndValidation) {
-  for (TrajectoryKind kind : kAllKinds) {
+  for (TrajectoryKind kind :
+       {TrajectoryKind::kCircle, TrajectoryKind::kFigureEight, TrajectoryKind::kCorridorLoop,
+        TrajectoryKind::kPureRotation, TrajectoryKind::kFastMotion, TrajectoryKind::kTour}) {
     StatusOr<TrajectoryKind> parsed = ParseTrajectoryKind(TrajectoryKindName(kind));
     ASSERT_TRUE(parsed.ok());
     EXPECT_EQ(*parsed, kind);
