@@ -67,7 +67,7 @@ StatusOr<MapPipelines> IngestManager::PipelinesFor(const SessionInfo& session, b
         p.layers, MapLayerBuilder::Start(session.map_id, session.map_name, options_.layers, writer_,
                                          /*restore=*/true));
   }
-  if (!p.objects && visual && objects_ && options_.objects.enabled) {
+  if (!p.objects && objects_ && options_.objects.enabled) {
     SEMMAP_ASSIGN_OR_RETURN(p.objects, ObjectMapper::Start(session.map_id, options_.objects,
                                                            objects_, writer_, /*restore=*/true));
   }

@@ -186,7 +186,7 @@ Status IngestSession::HandleStart(const IngestStartRequest& start) {
     SEMMAP_ASSIGN_OR_RETURN(MapPipelines pipelines, pipelines_(created, visual));
     if (visual) backend_ = std::move(pipelines.backend);
     layers_ = std::move(pipelines.layers);
-    if (visual) objects_ = std::move(pipelines.objects);  // recognition needs keyframe features
+    objects_ = std::move(pipelines.objects);
   }
   if (backend_) {
     backend_->RegisterSession(created.id, created.camera, [this](const Eigen::Isometry3d& T) {
@@ -274,11 +274,7 @@ Status IngestSession::HandleFrame(IngestFrame& frame,
   if (layers_ && estimate.is_keyframe && decoded.depth) {
     SEMMAP_RETURN_IF_ERROR(FeedLayers(decoded, estimate));
   }
-  if (objects_ && estimate.is_keyframe && estimate.keyframe_features) {
-    SEMMAP_RETURN_IF_ERROR(objects_->AddKeyframe(session_->id, static_cast<int64_t>(frame.seq),
-                                                 decoded.stamp_ns, estimate.keyframe_features,
-                                                 session_->camera));
-  }
+  if (objects_ && estimate.is_keyframe) SEMMAP_RETURN_IF_ERROR(FeedObjects(decoded, estimate));
   ++frames_;
   if (estimate.is_keyframe) ++keyframes_;
   if (estimate.lost) ++lost_frames_;
@@ -418,6 +414,20 @@ Status IngestSession::FeedLayers(const DecodedFrame& frame, const FrameEstimate&
   return layers_->SetKeyframePoses({{session_->id, seq, estimate.T_world_camera}}, false);
 }
 
+Status IngestSession::FeedObjects(const DecodedFrame& frame, const FrameEstimate& estimate) {
+  const int64_t seq = static_cast<int64_t>(frame.seq);
+  if (estimate
+          .keyframe_features) {  // visual sessions: the tracker's features, the back end's poses
+    return objects_->AddKeyframe(session_->id, seq, frame.stamp_ns, estimate.keyframe_features,
+                                 session_->camera);
+  }
+  if (!frame.depth) return OkStatus();  // positions need depth
+  SEMMAP_RETURN_IF_ERROR(objects_->AddKeyframeImages(session_->id, seq, frame.stamp_ns,
+                                                     frame.colour, *frame.depth, session_->camera));
+  if (backend_) return OkStatus();
+  return objects_->SetKeyframePoses({{session_->id, seq, estimate.T_world_camera}}, false);
+}
+
 void IngestSession::ApplyPendingCorrection() {
   std::optional<Eigen::Isometry3d> correction;
   {
@@ -501,8 +511,7 @@ void IngestSession::Finish(Status status) {
                  stats.known_volume_m3 > 0
                      ? static_cast<double>(stats.octree_bytes) / 1000.0 / stats.known_volume_m3
                      : 0.0,
-                 stats.cloud_points,
-                 static_cast<double>(stats.occupancy_blob_bytes) / (1 << 20),
+                 stats.cloud_points, static_cast<double>(stats.occupancy_blob_bytes) / (1 << 20),
                  static_cast<double>(stats.cloud_blob_bytes) / (1 << 20));
   }
   // Whatever was submitted is committed (or failed) before the client hears the final status,

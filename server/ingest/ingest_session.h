@@ -86,6 +86,8 @@ class IngestSession {
                    std::chrono::steady_clock::time_point submitted_at);
   void Finish(Status status);
   // Hands the frame (and its keyframe) to the back end, after its write was submitted.
+  // A keyframe goes to object recognition (features, or images for KNOWN_POSES sessions).
+  Status FeedObjects(const DecodedFrame& frame, const FrameEstimate& estimate);
   // A keyframe with depth goes to the map layers.
   Status FeedLayers(const DecodedFrame& frame, const FrameEstimate& estimate);
   Status FeedBackend(const DecodedFrame& frame, const FrameEstimate& estimate,

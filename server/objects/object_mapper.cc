@@ -58,10 +58,21 @@ Status ObjectMapper::AddKeyframe(int64_t session_id, int64_t seq, int64_t stamp_
                                  std::shared_ptr<const FrameFeatures> features,
                                  const CameraCalibration& camera) {
   if (!features) return InvalidArgumentError("object mapper: keyframe without features");
-  KeyframeItem item{std::move(features), session_id, seq, stamp_ns, camera};
+  KeyframeItem item{std::move(features), session_id, seq, stamp_ns, camera, {}, {}};
   if (!queue_.Push(std::move(item))) {
     return UnavailableError("object mapper stopped");
   }
+  std::lock_guard lock(mutex_);
+  stats_.queue_high_water = std::max(stats_.queue_high_water, queue_.size());
+  return OkStatus();
+}
+
+Status ObjectMapper::AddKeyframeImages(int64_t session_id, int64_t seq, int64_t stamp_ns,
+                                       cv::Mat colour, DecodedDepth depth,
+                                       const CameraCalibration& camera) {
+  KeyframeItem item{nullptr,           session_id,      seq, stamp_ns, camera,
+                    std::move(colour), std::move(depth)};
+  if (!queue_.Push(std::move(item))) return UnavailableError("object mapper stopped");
   std::lock_guard lock(mutex_);
   stats_.queue_high_water = std::max(stats_.queue_high_water, queue_.size());
   return OkStatus();
@@ -153,6 +164,27 @@ void ObjectMapper::Restore() {
 }
 
 void ObjectMapper::Handle(KeyframeItem& item) {
+  if (!item.features) {
+    if (!options_.enabled || catalog_->ModelsFor(map_id_)->models.empty()) return;
+    auto extractor = extractors_.find(item.session_id);
+    if (extractor == extractors_.end()) {
+      StatusOr<FeatureExtractor> created = FeatureExtractor::Create({}, item.camera);
+      if (!created.ok()) {
+        RecordError(created.status().WithContext("keyframe features"));
+        return;
+      }
+      extractor = extractors_.emplace(item.session_id, std::move(created).value()).first;
+    }
+    StatusOr<FrameFeatures> features =
+        extractor->second.Extract(item.colour, item.depth.raw, item.depth.depth_scale);
+    if (!features.ok()) {
+      RecordError(features.status().WithContext("keyframe seq " + std::to_string(item.seq)));
+      return;
+    }
+    item.features = std::make_shared<const FrameFeatures>(std::move(features).value());
+    item.colour.release();  // only the features are kept for the neighbours
+    item.depth = {};
+  }
   std::deque<KeyframeItem>& recent = recent_[item.session_id];
   recent.push_back(std::move(item));
   // The one before the newest now has both neighbours.
@@ -170,6 +202,7 @@ void ObjectMapper::Handle(const SessionEnd& end) {
   const KeyframeItem* before = recent.size() >= 2 ? &recent[recent.size() - 2] : nullptr;
   Recognise(recent.back(), before, nullptr);
   recent_.erase(it);
+  extractors_.erase(end.session_id);
 }
 
 void ObjectMapper::Handle(const PoseUpdate& update) {

@@ -22,6 +22,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <opencv2/core/mat.hpp>
 #include <optional>
 #include <string>
 #include <thread>
@@ -36,7 +37,9 @@
 #include "common/object_types.h"
 #include "common/status.h"
 #include "server/objects/object_catalog.h"
+#include "server/odometry/feature_extractor.h"
 #include "server/recognition/object_fusion.h"
+#include "server/sensor/image_decoding.h"
 #include "storage/pending_writes.h"
 #include "storage/storage_writer.h"
 
@@ -80,6 +83,10 @@ class ObjectMapper {
   Status AddKeyframe(int64_t session_id, int64_t seq, int64_t stamp_ns,
                      std::shared_ptr<const FrameFeatures> features,
                      const CameraCalibration& camera);
+  // A keyframe of a session without visual tracking (KNOWN_POSES): its features are extracted
+  // here, on the mapper's thread, from the colour and depth images (shared, not copied).
+  Status AddKeyframeImages(int64_t session_id, int64_t seq, int64_t stamp_ns, cv::Mat colour,
+                           DecodedDepth depth, const CameraCalibration& camera);
   // The session sends no more keyframes: its last one is decided now.
   Status EndSession(int64_t session_id);
   // Keyframe poses, as MapLayerBuilder takes them.
@@ -93,9 +100,11 @@ class ObjectMapper {
 
  private:
   struct KeyframeItem {
-    std::shared_ptr<const FrameFeatures> features;
+    std::shared_ptr<const FrameFeatures> features;  // null: extracted from the images
     int64_t session_id = 0, seq = 0, stamp_ns = 0;
     CameraCalibration camera;
+    cv::Mat colour;
+    DecodedDepth depth;
   };
   struct SessionEnd {
     int64_t session_id = 0;
@@ -129,6 +138,7 @@ class ObjectMapper {
 
   // Mapper-thread state.
   std::map<int64_t, std::deque<KeyframeItem>> recent_;  // per session: the last two keyframes
+  std::map<int64_t, FeatureExtractor> extractors_;      // per session, for AddKeyframeImages
   std::map<Key, Eigen::Isometry3d> poses_;
   std::vector<ObjectObservation> observations_;  // every accepted one of the map
   bool dirty_ = false;  // observations or poses changed since the last fusion

@@ -221,6 +221,21 @@ TEST(ObjectsE2ETest, TeddyIsFoundOnceNearItsTruePositionAndNotInTheCafe) {
               found["objects"][0]["observations"].get<int>());
   EXPECT_LT((p - truth).norm(), 0.10);
 
+  // KNOWN_POSES (the ground truth as poses): the server extracts features itself, and the
+  // teddy lands at the truth moved into the mocap frame by the first frame's pose (the client
+  // takes the first ground-truth pose for it: it lies 0.15 s after the frame).
+  ASSERT_FALSE(
+      cli.Json({"ingest", teddy, "--map", "mocap", "--poses", "groundtruth.txt"}).is_null());
+  const nlohmann::json in_mocap = cli.Json({"where", "teddy", "--map", "mocap"});
+  ASSERT_FALSE(in_mocap.is_null());
+  ASSERT_EQ(in_mocap["objects"].size(), 1u) << in_mocap.dump();
+  StatusOr<std::vector<StampedPose>> gt = ReadTumTrajectory(teddy + "/groundtruth.txt");
+  ASSERT_TRUE(gt.ok());
+  const Eigen::Vector3d truth_mocap = gt->front().T_world_camera * truth;
+  const Eigen::Vector3d p_mocap = Position(in_mocap["objects"][0]);
+  std::printf("teddy with ground-truth poses: %.3f m off\n", (p_mocap - truth_mocap).norm());
+  EXPECT_LT((p_mocap - truth_mocap).norm(), 0.10);
+
   const std::string cafe = data + "/kinect_cafe_391_nogt";
   ASSERT_FALSE(cli.Json({"ingest", cafe, "--map", "cafe"}).is_null());
   const nlohmann::json in_cafe = cli.Json({"where", "teddy", "--map", "cafe"});
