@@ -35,18 +35,12 @@
 #include <vector>
 
 #include "common/status.h"
+#include "server/mapping/cloud_point.h"
 
 namespace semmap {
 
-// One cloud point: world frame, RGB order.
-struct RenderPoint {
-  float x = 0;
-  float y = 0;
-  float z = 0;
-  uint8_t r = 0;
-  uint8_t g = 0;
-  uint8_t b = 0;
-};
+// One cloud point: world frame, RGB order (the cloud layer's own points).
+using RenderPoint = CloudPoint;
 
 // An axis-aligned (world frame) object box.
 struct RenderObject {

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "common/status.h"
+#include "server/mapping/cloud_point.h"
 #include "server/mapping/occupancy_map.h"
 
 namespace semmap {
@@ -36,16 +37,6 @@ struct PointCloudMapOptions {
 
   // leaf size finite and in [1 mm, 1 m].
   Status Validate() const;
-};
-
-// One point of the map: world coordinates and colour (RGB order, unlike KeyframeCloud's BGR).
-struct CloudPoint {
-  float x = 0;
-  float y = 0;
-  float z = 0;
-  uint8_t r = 0;
-  uint8_t g = 0;
-  uint8_t b = 0;
 };
 
 class PointCloudMap {

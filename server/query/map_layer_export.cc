@@ -154,11 +154,7 @@ StatusOr<std::string> RenderPng(MapStore& store, const MapInfo& map, const Expor
   StatusOr<PointCloudMap> cloud = Cloud(store, map, request, layers);
   // A map without layers (no depth) still shows its trajectories.
   if (!cloud.ok() && cloud.status().code() != StatusCode::kNotFound) return cloud.status();
-  if (cloud.ok()) {
-    input.cloud.reserve(cloud->size());
-    for (const CloudPoint& p : cloud->points())
-      input.cloud.push_back({p.x, p.y, p.z, p.r, p.g, p.b});
-  }
+  if (cloud.ok()) input.cloud = cloud->points();
   SEMMAP_ASSIGN_OR_RETURN(std::vector<SessionInfo> sessions, store.ListSessions(map.name));
   std::map<int64_t, Eigen::Vector3d> keyframe_positions;  // by keyframe id
   bool matched = request.session.empty();
