@@ -29,12 +29,18 @@ std::array<uint8_t, 3> LabelColour(const std::string& label) {
   const double f = hue - sector;
   const auto v = [](double x) { return static_cast<uint8_t>(40 + 215 * x); };
   switch (sector) {
-    case 0: return {v(1), v(f), v(0)};
-    case 1: return {v(1 - f), v(1), v(0)};
-    case 2: return {v(0), v(1), v(f)};
-    case 3: return {v(0), v(1 - f), v(1)};
-    case 4: return {v(f), v(0), v(1)};
-    default: return {v(1), v(0), v(1 - f)};
+    case 0:
+      return {v(1), v(f), v(0)};
+    case 1:
+      return {v(1 - f), v(1), v(0)};
+    case 2:
+      return {v(0), v(1), v(f)};
+    case 3:
+      return {v(0), v(1 - f), v(1)};
+    case 4:
+      return {v(f), v(0), v(1)};
+    default:
+      return {v(1), v(0), v(1 - f)};
   }
 }
 
@@ -85,6 +91,9 @@ StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input) {
   type.rgb = input.rgb ? *input.rgb : LabelColour(input.label);
   type.created_unix_ns = NowUnixNs();
   // Features first (the expensive, fallible part), outside any lock.
+  Entry entry;
+  entry.model.label = input.label;
+  entry.rgb = type.rgb;
   for (size_t i = 0; i < input.photos.size(); ++i) {
     const EncodedImage& photo = input.photos[i];
     StatusOr<ModelView> view = BuildModelViewFromEncoded(photo.bytes, options_);
@@ -99,6 +108,7 @@ StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input) {
     stored.features_format = std::string(kFeatureCodecFormat);
     stored.features = EncodeFeatures(view->features);
     type.views.push_back(std::move(stored));
+    entry.model.views.push_back(std::move(view).value());
   }
   SEMMAP_RETURN_IF_ERROR(writer_->RunSync([&](MapStore& store) -> Status {
     if (!input.map.empty()) {
@@ -108,7 +118,9 @@ StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input) {
     SEMMAP_ASSIGN_OR_RETURN(type, store.CreateObjectType(type));
     return OkStatus();
   }));
-  SEMMAP_ASSIGN_OR_RETURN(Entry entry, EntryFromType(type));
+  // The views just built are what the stored features decode to (lossless codec).
+  entry.model.type_id = type.id;
+  entry.map_id = type.map_id;
   std::lock_guard lock(mutex_);
   entries_[type.id] = std::move(entry);
   cache_.clear();

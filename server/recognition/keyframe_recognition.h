@@ -1,15 +1,15 @@
 // One keyframe's recognition step as the server runs it: DetectObjects on the keyframe, then
-// the neighbour check (xi_check.h) for each detection against its neighbouring keyframes,
+// the neighbour check (common/xi_check.h) for each detection against its neighbouring keyframes,
 // which are matched only for the models detected (one matching pass per view and neighbour).
 #pragma once
 
 #include <vector>
 
 #include "common/status.h"
+#include "common/xi_check.h"
 #include "server/odometry/feature_extractor.h"
 #include "server/recognition/object_detector.h"
 #include "server/recognition/object_model.h"
-#include "server/recognition/xi_check.h"
 
 namespace semmap {
 

@@ -18,10 +18,10 @@
 // Extent: the per-axis percentile range (10th-90th) of the inlier points, those on the plane
 // when it fits: about 80% of a uniformly textured face's size along each keyframe axis.
 //
-// The neighbour check (xi_check.h, keyframe_recognition.h) is the caller's next step; it needs
-// the per-model good-match counts returned here and CountGoodMatches on the neighbours.
-// One detection per model and keyframe: two copies of an object in one view give the one
-// with more inliers.
+// The neighbour check (common/xi_check.h, keyframe_recognition.h) is the caller's next step; it
+// needs the per-model good-match counts returned here and CountGoodMatches on the neighbours. One
+// detection per model and keyframe: two copies of an object in one view give the one with more
+// inliers.
 #pragma once
 
 #include <Eigen/Core>

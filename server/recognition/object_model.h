@@ -75,7 +75,7 @@ struct ObjectRecognitionOptions {
   // Extent: the per-axis range between these percentiles of the inlier 3D points.
   double extent_low_percentile = 10.0;
   double extent_high_percentile = 90.0;
-  // Neighbour check (xi_check.h): reject when N_c / N_n > max_xi.
+  // Neighbour check (common/xi_check.h): reject when N_c / N_n > max_xi.
   double max_xi = 1.25;
 
   Status Validate() const;

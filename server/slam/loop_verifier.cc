@@ -7,6 +7,8 @@
 #include <string>
 #include <utility>
 
+#include "common/xi_check.h"
+
 namespace semmap {
 namespace {
 
@@ -113,11 +115,6 @@ std::string_view LoopDecisionName(LoopDecision d) {
   return "unknown";
 }
 
-double LoopXi(int candidate_inliers, int neighbour_inliers) {
-  if (neighbour_inliers <= 0) return std::numeric_limits<double>::infinity();
-  return static_cast<double>(candidate_inliers) / static_cast<double>(neighbour_inliers);
-}
-
 LoopDecision DecideGeometry(int num_matches, int candidate_inliers, double rms_px,
                             const LoopVerifierOptions& options) {
   if (num_matches < std::max(options.min_inliers, options.motion.min_matches)) {
@@ -130,15 +127,22 @@ LoopDecision DecideGeometry(int num_matches, int candidate_inliers, double rms_p
   return LoopDecision::kAccepted;
 }
 
+namespace {
+
+LoopDecision ToLoopDecision(const XiDecision& xi) {
+  if (xi.accepted()) return LoopDecision::kAccepted;
+  return xi.verdict == XiVerdict::kNoNeighbours ? LoopDecision::kNoNeighbours
+                                                : LoopDecision::kXiTooHigh;
+}
+
+}  // namespace
+
 LoopDecision DecideXi(int candidate_inliers, int neighbour_inliers, int num_neighbours,
                       const LoopVerifierOptions& options) {
-  if (num_neighbours <= 0) {
-    return options.allow_without_neighbours ? LoopDecision::kAccepted : LoopDecision::kNoNeighbours;
-  }
-  // Division (not n_c > max_xi * n_n) so that the xi reported is the one compared: a ratio
-  // equal to max_xi's decimal value rounds to the same double as max_xi and is accepted.
-  return LoopXi(candidate_inliers, neighbour_inliers) > options.max_xi ? LoopDecision::kXiTooHigh
-                                                                       : LoopDecision::kAccepted;
+  return ToLoopDecision(
+      CheckXi(candidate_inliers,
+              num_neighbours > 0 ? std::vector<int>{neighbour_inliers} : std::vector<int>{},
+              options.max_xi, options.allow_without_neighbours));
 }
 
 StatusOr<LoopVerification> VerifyLoopCandidate(const FrameFeatures& query,
@@ -189,9 +193,10 @@ StatusOr<LoopVerification> VerifyLoopCandidate(const FrameFeatures& query,
     out.inliers_per_neighbour.push_back(s.inliers());
     out.neighbour_inliers = std::max(out.neighbour_inliers, s.inliers());
   }
-  out.xi = neighbours.empty() ? 0.0 : LoopXi(out.candidate_inliers, out.neighbour_inliers);
-  out.decision = DecideXi(out.candidate_inliers, out.neighbour_inliers,
-                          static_cast<int>(neighbours.size()), options);
+  const XiDecision xi = CheckXi(out.candidate_inliers, out.inliers_per_neighbour, options.max_xi,
+                                options.allow_without_neighbours);
+  out.xi = xi.xi;
+  out.decision = ToLoopDecision(xi);
   return out;
 }
 

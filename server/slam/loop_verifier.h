@@ -75,11 +75,10 @@ StatusOr<LoopVerification> VerifyLoopCandidate(const FrameFeatures& query,
 // inliers < min_inlier_ratio * matches.
 LoopDecision DecideGeometry(int num_matches, int candidate_inliers, double rms_px,
                             const LoopVerifierOptions& options);
-// xi: kNoNeighbours when num_neighbours == 0 (kAccepted with allow_without_neighbours),
-// kXiTooHigh when LoopXi(n_c, n_n) > max_xi (a ratio exactly at max_xi is accepted).
+// xi (CheckXi, common/xi_check.h): kNoNeighbours when num_neighbours == 0 (kAccepted with
+// allow_without_neighbours), kXiTooHigh when n_c / n_n > max_xi (a ratio exactly at
+// max_xi is accepted).
 LoopDecision DecideXi(int candidate_inliers, int neighbour_inliers, int num_neighbours,
                       const LoopVerifierOptions& options);
-// N_c / N_n; infinity when N_n == 0.
-double LoopXi(int candidate_inliers, int neighbour_inliers);
 
 }  // namespace semmap

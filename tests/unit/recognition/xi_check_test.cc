@@ -1,7 +1,7 @@
 // The xi neighbour check: the rule and its edge cases, and on rendered keyframes, a real
 // object (seen by its neighbours too) is accepted while a transient picture of an object
 // (pasted into one keyframe only: a perceptual alias) is detected but rejected.
-#include "server/recognition/xi_check.h"
+#include "common/xi_check.h"
 
 #include <gtest/gtest.h>
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "common/xi_check.h"
 #include "tests/testing/synth/texture.h"
 #include "tests/unit/odometry/odometry_test_util.h"
 
@@ -190,8 +191,8 @@ TEST(LoopVerifierDecisionTest, XiAtTheThresholdIsAccepted) {
   EXPECT_EQ(DecideXi(126, 100, 2, o), LoopDecision::kXiTooHigh);
   EXPECT_EQ(DecideXi(100, 125, 2, o), LoopDecision::kAccepted);  // neighbours match better
   EXPECT_EQ(DecideXi(100, 0, 2, o), LoopDecision::kXiTooHigh);   // no neighbour supports it
-  EXPECT_EQ(LoopXi(100, 0), std::numeric_limits<double>::infinity());
-  EXPECT_DOUBLE_EQ(LoopXi(125, 100), 1.25);
+  EXPECT_EQ(CheckXi(100, {0}, o.max_xi).xi, std::numeric_limits<double>::infinity());
+  EXPECT_DOUBLE_EQ(CheckXi(125, {100}, o.max_xi).xi, 1.25);
   // A decimal threshold: 11 / 10 rounds to the same double as 1.1.
   o.max_xi = 1.1;
   EXPECT_EQ(DecideXi(11, 10, 1, o), LoopDecision::kAccepted);
@@ -281,7 +282,7 @@ TEST(LoopVerifierTest, AcceptsATrueRevisitWithThePose) {
             *std::max_element(v.inliers_per_neighbour.begin(), v.inliers_per_neighbour.end()));
   EXPECT_GT(v.xi, 0.8);
   EXPECT_LE(v.xi, 1.25);
-  EXPECT_DOUBLE_EQ(v.xi, LoopXi(v.candidate_inliers, v.neighbour_inliers));
+  EXPECT_DOUBLE_EQ(v.xi, static_cast<double>(v.candidate_inliers) / v.neighbour_inliers);
   ExpectNear(v.T_candidate_query, r.T_world_candidate.inverse() * r.T_world_query, 0.005, 0.5);
   EXPECT_TRUE(v.information.isApprox(v.information.transpose(), 1e-9));
   EXPECT_GT(v.information.ldlt().vectorD().minCoeff(), 0.0);

@@ -1,9 +1,10 @@
-// The neighbour check of a detection: xi = N_c / N_n, N_c the object's good matches in the
-// keyframe, N_n the most good matches of the object in any one neighbouring keyframe. A real
-// object is seen from neighbouring keyframes too, with about as many matches (xi ~ 1); a
-// chance match, a transient picture (a screen, a page held up for a moment) or a perceptual
-// alias that only this view lines up with is an isolated spike (xi >> 1) and is rejected.
-// The best neighbour, not the mean: the object may be leaving the view on one side.
+// The seed's neighbour check, shared by loop verification and object recognition: xi = N_c /
+// N_n, N_c the support of a match in this keyframe (loop: PnP inliers against the candidate;
+// object: good matches of the object), N_n the most support in any one neighbouring keyframe.
+// A real revisit or object is seen from the neighbours too, with about as much support
+// (xi ~ 1); a chance match, a transient picture (a screen, a page held up for a moment) or a
+// perceptual alias that only this view lines up with is an isolated spike (xi >> 1) and is
+// rejected. The best neighbour, not the mean: the view may be leaving the scene on one side.
 //
 // Edge cases:
 //   - no neighbours at all (a session's first or only keyframe): accepted, xi reported 0
@@ -11,7 +12,7 @@
 //     the detection has already passed the geometric check; a caller that prefers to wait
 //     passes allow_without_neighbours = false and re-checks when neighbours exist;
 //   - N_n = 0 with N_c > 0: xi = +infinity, rejected (no neighbour sees it at all);
-//   - N_c = 0: xi = 0, accepted (nothing to reject; DetectObjects never reports it);
+//   - N_c = 0: xi = 0, accepted (nothing to reject; neither caller gets this far with it);
 //   - xi exactly max_xi: accepted (reject only when xi > max_xi).
 // Negative counts are read as 0.
 #pragma once

@@ -1,4 +1,4 @@
-#include "server/recognition/xi_check.h"
+#include "common/xi_check.h"
 
 #include <algorithm>
 #include <limits>
