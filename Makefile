@@ -5,7 +5,7 @@ JOBS ?= $(shell nproc)
 export CCACHE_BASEDIR := $(CURDIR)
 export CCACHE_NOHASHDIR := 1
 
-.PHONY: demo test deps build test-asan bench format clean
+.PHONY: demo test deps build test-asan fuzz bench format clean
 
 deps:
 	bash scripts/install-deps.sh
@@ -25,6 +25,13 @@ test-asan: deps
 	cmake --preset asan
 	cmake --build --preset asan -j $(JOBS)
 	ctest --preset asan -j 2
+
+# libFuzzer targets (clang, ASan + UBSan) over the parsers of outside bytes, FUZZ_SECONDS each
+# (CI runs this too); fails on a crash and prints the input and how to reproduce it.
+FUZZ_SECONDS ?= 30
+fuzz:
+	bash scripts/install-deps.sh fuzz
+	BUILD_JOBS=$(JOBS) bash scripts/fuzz.sh --seconds $(FUZZ_SECONDS)
 
 # Figures, not pass/fail: dataset harness (teddy, or the bundled sample) and micro-benchmarks.
 bench: build

@@ -29,6 +29,9 @@ struct ExportResult {
   std::string media_type;
   std::string bytes;
   std::string sha256_hex;
+  // 3D formats: map coordinates = layer coordinates + layer_origin (zero for maps near their
+  // frame's origin; see server/mapping/layer_frame.h).
+  Eigen::Vector3d layer_origin = Eigen::Vector3d::Zero();
 };
 
 class MapQueryInterface {

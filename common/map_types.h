@@ -17,6 +17,19 @@ std::string_view SessionModeName(SessionMode mode);  // "rgbd", "mono", "known_p
 
 enum class LinkKind : int { kOdometry = 1, kLoop = 2 };
 
+// How a session ended (values as stored and on the wire).
+enum class SessionEndReason : int {
+  kUnspecified = 0,  // open, or ended before reasons were recorded
+  kCompleted = 1,    // the client sent end; everything was stored
+  kCancelled = 2,    // the client cancelled, hung up or hit its deadline
+  kError = 3,        // the server refused a message or failed
+  kServerStopped = 4,
+  kIdleTimeout = 5,
+  kCrashed = 6,  // the server stopped without ending it; marked at the next start
+};
+// "open/unknown", "completed", "cancelled", "error", "server stopped", "idle timeout", "crashed"
+std::string_view SessionEndReasonName(SessionEndReason reason);
+
 struct MapInfo {
   int64_t id = 0;
   std::string name;
@@ -37,6 +50,16 @@ struct SessionInfo {
   int64_t ended_unix_ns = 0;  // 0 while the session is open (or ended by a crash)
   int64_t frame_count = 0;
   int64_t keyframe_count = 0;
+  SessionEndReason end_reason = SessionEndReason::kUnspecified;
+  std::string end_message;  // the final status message when it did not complete
+};
+
+// What an administrative removal took with it.
+struct RemovedCounts {
+  int64_t map_id = 0;  // the map removed from, or removed
+  int64_t sessions = 0;
+  int64_t frames = 0;
+  int64_t keyframes = 0;
 };
 
 // One pose of a session's trajectory: every frame has one, keyframes are flagged.

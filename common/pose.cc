@@ -10,6 +10,11 @@ Status ValidatePoseTq(const PoseTq& pose) {
   if (!pose.t.allFinite() || !pose.q.coeffs().allFinite()) {
     return InvalidArgumentError("pose has a non-finite value");
   }
+  if (pose.t.cwiseAbs().maxCoeff() > kMaxPositionM) {
+    return InvalidArgumentError("pose position (" + std::to_string(pose.t.x()) + ", " +
+                                std::to_string(pose.t.y()) + ", " + std::to_string(pose.t.z()) +
+                                ") m is beyond 1e7 m on an axis: not a place on Earth");
+  }
   const double norm = pose.q.norm();
   if (std::abs(norm - 1.0) > 1e-2) {
     return InvalidArgumentError("pose quaternion is not unit length (norm " + std::to_string(norm) +

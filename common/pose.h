@@ -14,8 +14,12 @@ struct PoseTq {
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
 };
 
-// Rejects non-finite values and quaternions whose norm is not within 1e-2 of one
-// (a zero quaternion is a degenerate pose, not a rotation).
+// Positions beyond this (10,000 km per axis) are not a place: it covers any UTM easting or
+// northing and Earth-centred coordinates, with room to spare.
+inline constexpr double kMaxPositionM = 1e7;
+
+// Rejects non-finite values, positions beyond kMaxPositionM on an axis and quaternions whose
+// norm is not within 1e-2 of one (a zero quaternion is a degenerate pose, not a rotation).
 Status ValidatePoseTq(const PoseTq& pose);
 
 // Builds an isometry; the quaternion is normalised (call ValidatePoseTq first).

@@ -54,6 +54,8 @@ inline Status OkStatus() { return Status(); }
 Status CancelledError(std::string message);
 Status UnknownError(std::string message);
 Status InvalidArgumentError(std::string message);
+Status DeadlineExceededError(std::string message);
+Status PermissionDeniedError(std::string message);
 Status NotFoundError(std::string message);
 Status AlreadyExistsError(std::string message);
 Status ResourceExhaustedError(std::string message);

@@ -139,6 +139,8 @@ void ToProto(const SessionInfo& s, v1::SessionInfo* out) {
   if (s.ended_unix_ns != 0) ToProto(s.ended_unix_ns, out->mutable_ended());
   out->set_frame_count(s.frame_count);
   out->set_keyframe_count(s.keyframe_count);
+  out->set_end_reason(static_cast<v1::SessionEndReason>(s.end_reason));  // same values
+  out->set_end_message(s.end_message);
 }
 
 SessionInfo FromProto(const v1::SessionInfo& in) {
@@ -153,6 +155,12 @@ SessionInfo FromProto(const v1::SessionInfo& in) {
   s.ended_unix_ns = in.has_ended() ? FromProto(in.ended()) : 0;
   s.frame_count = static_cast<int64_t>(in.frame_count());
   s.keyframe_count = static_cast<int64_t>(in.keyframe_count());
+  // A newer server may know more reasons; they read as unspecified.
+  const int reason = in.end_reason();
+  if (reason >= 0 && reason <= static_cast<int>(SessionEndReason::kCrashed)) {
+    s.end_reason = static_cast<SessionEndReason>(reason);
+  }
+  s.end_message = in.end_message();
   return s;
 }
 

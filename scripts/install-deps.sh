@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package semmap needs to build, test and run.
 # Idempotent: when everything is present it only runs dpkg-query and exits.
+# `install-deps.sh fuzz` adds clang and libFuzzer for scripts/fuzz.sh (make fuzz).
 set -euo pipefail
 
 PACKAGES=(
@@ -12,11 +13,19 @@ PACKAGES=(
   libopencv-dev libeigen3-dev libceres-dev liboctomap-dev libpcl-dev
   # storage, hashing, json
   libsqlite3-dev libssl-dev nlohmann-json3-dev
+  # image decoding (PNG, JPEG)
+  libpng-dev libjpeg-dev zlib1g-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # scripts: process control, JSON in bench scripts
   procps jq
 )
+for extra in "$@"; do
+  case "$extra" in
+    fuzz) PACKAGES+=(clang libclang-rt-14-dev) ;;  # libFuzzer, ASan/UBSan runtimes
+    *) echo "install-deps: unknown package set '$extra' (known: fuzz)" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -57,6 +57,22 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   writer_options.queue_capacity = options.storage_queue_capacity;
   SEMMAP_ASSIGN_OR_RETURN(server->writer_,
                           StorageWriter::Start(std::move(write_store), writer_options));
+  // Sessions a previous run left open ended when it stopped without ending them.
+  int64_t crashed = 0;
+  Status marked = server->writer_->RunSync([&](MapStore& store) -> Status {
+    SEMMAP_ASSIGN_OR_RETURN(crashed, store.MarkOpenSessionsCrashed());
+    return OkStatus();
+  });
+  if (!marked.ok()) {
+    Status stopped = server->writer_->Stop();
+    (void)stopped;
+    return marked.WithContext("marking sessions left open");
+  }
+  if (crashed > 0) {
+    std::cerr << "semmapd: " << crashed
+              << " session(s) were left open by a previous run that did not stop cleanly; "
+                 "marked crashed (their acknowledged-durable frames are kept)\n";
+  }
   server->query_ = std::make_unique<StoreMapQuery>(std::move(read_store), options.ingest.layers);
   std::shared_ptr<const BowVocabulary> vocabulary;
   if (!options.vocabulary_path.empty()) {

@@ -32,6 +32,13 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
                           args.GetInt("queue-capacity", options->ingest.queue_capacity));
   if (queue < 1) return semmap::InvalidArgumentError("--queue-capacity must be >= 1");
   options->ingest.queue_capacity = static_cast<size_t>(queue);
+  SEMMAP_ASSIGN_OR_RETURN(
+      long long streams,
+      args.GetInt("max-streams", static_cast<long long>(options->ingest.max_streams)));
+  if (streams < 1) return semmap::InvalidArgumentError("--max-streams must be >= 1");
+  options->ingest.max_streams = static_cast<size_t>(streams);
+  SEMMAP_ASSIGN_OR_RETURN(options->ingest.idle_timeout_s,
+                          args.GetDouble("stream-idle-timeout-s", options->ingest.idle_timeout_s));
   SEMMAP_ASSIGN_OR_RETURN(long long max_mb, args.GetInt("max-message-mb", 64));
   options->max_message_mb = static_cast<int>(max_mb);
   options->ingest.max_frame_bytes = static_cast<size_t>(std::max(1LL, max_mb)) << 20;
@@ -92,6 +99,12 @@ int main(int argc, char** argv) {
   args.AddFlag("sqlite-sync", "full|normal", "SQLite synchronous mode (default full)");
   args.AddFlag("queue-capacity", "N", "frames buffered per ingest stream (default 8)");
   args.AddFlag("max-message-mb", "MB", "largest accepted message / frame payload (default 64)");
+  args.AddFlag(
+      "max-streams", "N",
+      "concurrent ingest streams; one more is refused with RESOURCE_EXHAUSTED (default 64)");
+  args.AddFlag("stream-idle-timeout-s", "S",
+               "end a stream that sends nothing for S seconds with DEADLINE_EXCEEDED, keeping "
+               "what it sent (default 60; 0: never)");
   args.AddFlag("keyframe-min-motion", "M", "keyframe motion threshold (default 0.10)");
   args.AddFlag("keyframe-rotation-weight", "M_PER_RAD",
                "rotation weight in the motion norm (default 0.5)");

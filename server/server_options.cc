@@ -34,7 +34,8 @@ std::string ServerOptions::ToString() const {
       << " sqlite_synchronous=" << (sync_full ? "FULL" : "NORMAL")
       << " max_message_mb=" << max_message_mb << " shutdown_grace_s=" << shutdown_grace_s
       << " queue_capacity=" << ingest.queue_capacity
-      << " max_frame_bytes=" << ingest.max_frame_bytes
+      << " max_frame_bytes=" << ingest.max_frame_bytes << " max_streams=" << ingest.max_streams
+      << " stream_idle_timeout_s=" << ingest.idle_timeout_s
       << " keyframe_min_motion=" << ingest.keyframes.min_motion
       << " keyframe_rotation_weight=" << ingest.keyframes.rotation_weight
       << " vocabulary=" << (vocabulary_path.empty() ? "none" : vocabulary_path)

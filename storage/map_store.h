@@ -53,7 +53,18 @@ class MapStore {
                                            const std::string& session_name) = 0;
   // ALREADY_EXISTS when the map has a session of that name. Fills id and map_name.
   virtual StatusOr<SessionInfo> CreateSession(const SessionInfo& session) = 0;
-  virtual Status EndSession(int64_t session_id, int64_t ended_unix_ns) = 0;
+  // Records the end (reason kCompleted .. kIdleTimeout; `message` empty for kCompleted).
+  virtual Status EndSession(int64_t session_id, int64_t ended_unix_ns, SessionEndReason reason,
+                            const std::string& message) = 0;
+  // At start-up, before any stream: every session still open was left so by a server that
+  // stopped without ending it; marks them kCrashed and returns how many there were.
+  virtual StatusOr<int64_t> MarkOpenSessionsCrashed() = 0;
+  // Removes a session with its frames, keyframes, links and object observations, and the
+  // map's derived products (layer blobs, object instances), which the caller rebuilds from
+  // what is left. NOT_FOUND for an unknown session.
+  virtual StatusOr<RemovedCounts> RemoveSession(int64_t session_id) = 0;
+  // Removes a map with everything in it. NOT_FOUND for an unknown map.
+  virtual StatusOr<RemovedCounts> RemoveMap(int64_t map_id) = 0;
 
   // --- trajectory and keyframes ---
   virtual StatusOr<WriteResult> Write(const WriteBatch& batch) = 0;

@@ -8,6 +8,19 @@
 #include "common/tum_format.h"
 
 namespace semmap::cli {
+namespace {
+
+// "completed", "error: INVALID_ARGUMENT: ...", "open" (still streaming), ...
+std::string SessionEndText(const SessionInfo& s) {
+  if (s.end_reason == SessionEndReason::kUnspecified) {
+    return s.ended_unix_ns == 0 ? "open" : "ended";
+  }
+  std::string text(SessionEndReasonName(s.end_reason));
+  if (!s.end_message.empty()) text += ": " + s.end_message;
+  return text;
+}
+
+}  // namespace
 
 int RunHealth(CliContext context, int argc, const char* const* argv) {
   ArgParser parser;
@@ -29,8 +42,12 @@ int RunHealth(CliContext context, int argc, const char* const* argv) {
 }
 
 int RunMaps(CliContext context, int argc, const char* const* argv) {
+  if (argc > 0 && std::string(argv[0]) == "remove")
+    return RunMapsRemove(context, argc - 1, argv + 1);
   ArgParser parser;
-  if (int rc = ParseSubcommand(parser, &context, argc, argv, "usage: semmap maps\n  Lists maps.\n",
+  if (int rc = ParseSubcommand(parser, &context, argc, argv,
+                               "usage: semmap maps\n       semmap maps remove MAP [--yes]\n"
+                               "  Lists maps (or removes one).\n",
                                0, 0);
       rc >= 0) {
     return rc;
@@ -54,11 +71,16 @@ int RunMaps(CliContext context, int argc, const char* const* argv) {
 }
 
 int RunSessions(CliContext context, int argc, const char* const* argv) {
+  if (argc > 0 && std::string(argv[0]) == "remove") {
+    return RunSessionsRemove(context, argc - 1, argv + 1);
+  }
   ArgParser parser;
   parser.AddFlag("map", "M", "only this map's sessions");
-  if (int rc =
-          ParseSubcommand(parser, &context, argc, argv,
-                          "usage: semmap sessions [--map M]\n  Lists mapping sessions.\n", 0, 0);
+  if (int rc = ParseSubcommand(parser, &context, argc, argv,
+                               "usage: semmap sessions [--map M]\n"
+                               "       semmap sessions remove --map M SESSION [--yes]\n"
+                               "  Lists mapping sessions and how they ended (or removes one).\n",
+                               0, 0);
       rc >= 0) {
     return rc;
   }
@@ -75,8 +97,8 @@ int RunSessions(CliContext context, int argc, const char* const* argv) {
   for (const SessionInfo& s : *sessions) {
     std::cout << std::left << std::setw(16) << s.map_name << " " << std::setw(24) << s.name << " "
               << std::setw(12) << SessionModeName(s.mode) << " frames " << std::setw(6)
-              << s.frame_count << " keyframes " << std::setw(5) << s.keyframe_count
-              << (s.ended_unix_ns == 0 ? " (open or interrupted)" : "") << "\n";
+              << s.frame_count << " keyframes " << std::setw(5) << s.keyframe_count << " "
+              << SessionEndText(s) << "\n";
   }
   return kExitOk;
 }
@@ -174,14 +196,20 @@ int RunExport(CliContext context, int argc, const char* const* argv) {
   file.write(result->bytes.data(), static_cast<std::streamsize>(result->bytes.size()));
   file.close();
   if (!file) return ReportError(UnavailableError("writing " + path + " failed"));
+  const Eigen::Vector3d& origin = result->layer_origin;
   if (context.json) {
     PrintJson({{"file", path},
                {"format", result->format},
                {"bytes", result->bytes.size()},
-               {"sha256", result->sha256_hex}});
+               {"sha256", result->sha256_hex},
+               {"layer_origin", {origin.x(), origin.y(), origin.z()}}});
   } else {
     std::cout << "wrote " << result->bytes.size() << " bytes (" << result->format << ", sha256 "
               << result->sha256_hex << ") to " << path << "\n";
+    if (!origin.isZero()) {
+      std::cout << "3D coordinates are in the map's layer frame: map = layer + (" << origin.x()
+                << ", " << origin.y() << ", " << origin.z() << ") m\n";
+    }
   }
   return kExitOk;
 }

@@ -9,6 +9,8 @@ int RunHealth(CliContext context, int argc, const char* const* argv);
 int RunIngest(CliContext context, int argc, const char* const* argv);
 int RunMaps(CliContext context, int argc, const char* const* argv);
 int RunSessions(CliContext context, int argc, const char* const* argv);
+int RunSessionsRemove(CliContext context, int argc, const char* const* argv);
+int RunMapsRemove(CliContext context, int argc, const char* const* argv);
 int RunTrajectory(CliContext context, int argc, const char* const* argv);
 int RunExport(CliContext context, int argc, const char* const* argv);
 int RunEval(CliContext context, int argc, const char* const* argv);

@@ -40,6 +40,10 @@ nlohmann::json ToJson(const SessionInfo& s) {
                           {"cy", s.camera.cy}}}};
   out["ended"] = s.ended_unix_ns == 0 ? nlohmann::json(nullptr)
                                       : nlohmann::json(FormatUnixTime(s.ended_unix_ns));
+  out["end_reason"] = s.end_reason == SessionEndReason::kUnspecified
+                          ? nlohmann::json(nullptr)
+                          : nlohmann::json(std::string(SessionEndReasonName(s.end_reason)));
+  out["end_message"] = s.end_message;
   return out;
 }
 

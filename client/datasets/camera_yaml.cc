@@ -72,6 +72,10 @@ Status ApplyKey(std::string_view key, std::string_view value, const std::string&
 
 StatusOr<CameraYaml> ReadCameraYaml(const std::string& path) {
   SEMMAP_ASSIGN_OR_RETURN(const std::string content, datasets_internal::ReadWholeFile(path));
+  return ParseCameraYaml(content, path);
+}
+
+StatusOr<CameraYaml> ParseCameraYaml(std::string_view content, const std::string& path) {
   CameraYaml out;
   std::set<std::string, std::less<>> seen;
   for (const TextLine& line : datasets_internal::SplitLines(content)) {

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 #include "common/camera.h"
 #include "common/status.h"
@@ -23,5 +24,7 @@ struct CameraYaml {
 // distortion (4 or 5 values, default zeros). Errors name the file and line; the result
 // passes ValidateCalibration. NOT_FOUND when the file does not exist.
 StatusOr<CameraYaml> ReadCameraYaml(const std::string& path);
+// ReadCameraYaml on a file's content; errors name `path` (a file name or any label).
+StatusOr<CameraYaml> ParseCameraYaml(std::string_view content, const std::string& path);
 
 }  // namespace semmap

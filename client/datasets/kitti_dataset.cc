@@ -14,9 +14,20 @@ namespace {
 namespace fs = std::filesystem;
 using datasets_internal::LineError;
 
-// times.txt: one stamp in seconds per line (often "1.038752e-01"); strictly increasing.
+std::string ImagePath(const std::string& dir, size_t index) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "%06zu.png", index);
+  return (fs::path(dir) / "image_0" / name).string();
+}
+
 StatusOr<std::vector<int64_t>> ReadKittiTimes(const std::string& path) {
   SEMMAP_ASSIGN_OR_RETURN(const std::string content, datasets_internal::ReadWholeFile(path));
+  return ParseKittiTimes(content, path);
+}
+
+}  // namespace
+
+StatusOr<std::vector<int64_t>> ParseKittiTimes(std::string_view content, const std::string& path) {
   std::vector<int64_t> stamps;
   for (const datasets_internal::TextLine& line : datasets_internal::SplitLines(content)) {
     const std::string_view text =
@@ -34,16 +45,12 @@ StatusOr<std::vector<int64_t>> ReadKittiTimes(const std::string& path) {
   return stamps;
 }
 
-std::string ImagePath(const std::string& dir, size_t index) {
-  char name[32];
-  std::snprintf(name, sizeof(name), "%06zu.png", index);
-  return (fs::path(dir) / "image_0" / name).string();
-}
-
-}  // namespace
-
 StatusOr<CameraCalibration> ReadKittiCalibP0(const std::string& path) {
   SEMMAP_ASSIGN_OR_RETURN(const std::string content, datasets_internal::ReadWholeFile(path));
+  return ParseKittiCalibP0(content, path);
+}
+
+StatusOr<CameraCalibration> ParseKittiCalibP0(std::string_view content, const std::string& path) {
   for (const datasets_internal::TextLine& line : datasets_internal::SplitLines(content)) {
     if (!line.text.starts_with("P0:")) continue;
     const std::vector<std::string_view> fields =

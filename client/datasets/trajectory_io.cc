@@ -86,6 +86,11 @@ Status CheckFinite(const std::vector<StampedPose>& poses, const std::string& pat
 
 StatusOr<std::vector<StampedPose>> ReadTumTrajectory(const std::string& path) {
   SEMMAP_ASSIGN_OR_RETURN(const std::string content, datasets_internal::ReadWholeFile(path));
+  return ParseTumTrajectory(content, path);
+}
+
+StatusOr<std::vector<StampedPose>> ParseTumTrajectory(std::string_view content,
+                                                      const std::string& path) {
   std::vector<StampedPose> poses;
   for (const FieldLine& line : DataLines(content)) {
     if (line.fields.size() != 8) {
@@ -117,16 +122,27 @@ Status WriteTumTrajectory(const std::string& path, const std::vector<StampedPose
   SEMMAP_RETURN_IF_ERROR(CheckFinite(poses, path));
   OutputFile out(path);
   SEMMAP_RETURN_IF_ERROR(out.OpenStatus());
-  std::fprintf(out.get(), "# timestamp tx ty tz qx qy qz qw (T_world_camera)\n");
-  for (const StampedPose& pose : poses) {
-    std::fputs(FormatTumPoseLine(pose.stamp_ns, pose.T_world_camera).c_str(), out.get());
-  }
+  const std::string content = FormatTumTrajectory(poses);
+  std::fwrite(content.data(), 1, content.size(), out.get());
   return out.Close();
+}
+
+std::string FormatTumTrajectory(const std::vector<StampedPose>& poses) {
+  std::string out = "# timestamp tx ty tz qx qy qz qw (T_world_camera)\n";
+  for (const StampedPose& pose : poses)
+    out += FormatTumPoseLine(pose.stamp_ns, pose.T_world_camera);
+  return out;
 }
 
 StatusOr<std::vector<StampedPose>> ReadKittiPoses(const std::string& path,
                                                   const std::vector<int64_t>& stamps_ns) {
   SEMMAP_ASSIGN_OR_RETURN(const std::string content, datasets_internal::ReadWholeFile(path));
+  return ParseKittiPoses(content, path, stamps_ns);
+}
+
+StatusOr<std::vector<StampedPose>> ParseKittiPoses(std::string_view content,
+                                                   const std::string& path,
+                                                   const std::vector<int64_t>& stamps_ns) {
   std::vector<StampedPose> poses;
   for (const FieldLine& line : DataLines(content)) {
     if (line.fields.size() != 12) {
@@ -165,15 +181,24 @@ Status WriteKittiPoses(const std::string& path, const std::vector<StampedPose>& 
   SEMMAP_RETURN_IF_ERROR(CheckFinite(poses, path));
   OutputFile out(path);
   SEMMAP_RETURN_IF_ERROR(out.OpenStatus());
+  const std::string content = FormatKittiPoses(poses);
+  std::fwrite(content.data(), 1, content.size(), out.get());
+  return out.Close();
+}
+
+std::string FormatKittiPoses(const std::vector<StampedPose>& poses) {
+  std::string out;
+  char number[32];  // "%.9e" of a finite double: at most 16 characters plus the separator
   for (const StampedPose& pose : poses) {
     const Eigen::Matrix<double, 3, 4> M = pose.T_world_camera.matrix().topRows<3>();
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 4; ++c) {
-        std::fprintf(out.get(), "%.9e%c", M(r, c), (r == 2 && c == 3) ? '\n' : ' ');
+        std::snprintf(number, sizeof(number), "%.9e%c", M(r, c), (r == 2 && c == 3) ? '\n' : ' ');
+        out += number;
       }
     }
   }
-  return out.Close();
+  return out;
 }
 
 }  // namespace semmap

@@ -21,27 +21,20 @@ struct ListedImage {
   int line;
 };
 
-// Reads rgb.txt / depth.txt: `timestamp path` per line, '#' lines are comments. The path is
-// the rest of the line, so names with blanks survive. Sorted by stamp; files must exist.
+// Reads rgb.txt / depth.txt (ParseTumImageList), resolves the paths against the dataset dir
+// and checks that the files exist. Sorted by stamp.
 StatusOr<std::vector<ListedImage>> ReadImageList(const std::string& dir, const std::string& name) {
   const std::string list_path = (fs::path(dir) / name).string();
   SEMMAP_ASSIGN_OR_RETURN(const std::string content, datasets_internal::ReadWholeFile(list_path));
+  SEMMAP_ASSIGN_OR_RETURN(const std::vector<TumListEntry> entries,
+                          ParseTumImageList(content, list_path));
   std::vector<ListedImage> images;
-  for (const datasets_internal::TextLine& line : datasets_internal::SplitLines(content)) {
-    if (line.text.empty() || line.text.front() == '#') continue;
-    const size_t split = line.text.find_first_of(" \t,");
-    const std::string_view path = split == std::string_view::npos
-                                      ? std::string_view()
-                                      : datasets_internal::Trim(line.text.substr(split + 1));
-    if (path.empty()) return LineError(list_path, line.number, "expected 'timestamp path'");
-    ListedImage image{0, (fs::path(dir) / std::string(path)).string(), line.number};
-    if (!datasets_internal::ParseStamp(line.text.substr(0, split), &image.stamp_ns)) {
-      return LineError(list_path, line.number,
-                       "bad timestamp '" + std::string(line.text.substr(0, split)) + "'");
-    }
+  images.reserve(entries.size());
+  for (const TumListEntry& entry : entries) {
+    ListedImage image{entry.stamp_ns, (fs::path(dir) / entry.path).string(), entry.line};
     std::error_code ec;
     if (!fs::is_regular_file(image.path, ec)) {
-      return NotFoundError(list_path + ":" + std::to_string(line.number) + ": listed image " +
+      return NotFoundError(list_path + ":" + std::to_string(entry.line) + ": listed image " +
                            image.path + " does not exist");
     }
     images.push_back(std::move(image));
@@ -60,6 +53,26 @@ std::vector<int64_t> Stamps(const std::vector<ListedImage>& images) {
 }
 
 }  // namespace
+
+StatusOr<std::vector<TumListEntry>> ParseTumImageList(std::string_view content,
+                                                      const std::string& path) {
+  std::vector<TumListEntry> entries;
+  for (const datasets_internal::TextLine& line : datasets_internal::SplitLines(content)) {
+    if (line.text.empty() || line.text.front() == '#') continue;
+    const size_t split = line.text.find_first_of(" \t,");
+    const std::string_view file = split == std::string_view::npos
+                                      ? std::string_view()
+                                      : datasets_internal::Trim(line.text.substr(split + 1));
+    if (file.empty()) return LineError(path, line.number, "expected 'timestamp path'");
+    TumListEntry entry{0, std::string(file), line.number};
+    if (!datasets_internal::ParseStamp(line.text.substr(0, split), &entry.stamp_ns)) {
+      return LineError(path, line.number,
+                       "bad timestamp '" + std::string(line.text.substr(0, split)) + "'");
+    }
+    entries.push_back(std::move(entry));
+  }
+  return entries;
+}
 
 StatusOr<Dataset> OpenTumDataset(const std::string& dir) {
   Dataset dataset;

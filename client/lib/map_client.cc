@@ -112,7 +112,11 @@ StatusOr<ExportResult> MapClient::ExportMap(const ExportRequest& request) {
     if (message.has_header()) {
       result.format = message.header().format();
       result.media_type = message.header().media_type();
-      result.bytes.reserve(message.header().total_bytes());
+      // A size hint from the server; never trusted beyond what a message could carry.
+      result.bytes.reserve(static_cast<size_t>(
+          std::min<uint64_t>(message.header().total_bytes(), uint64_t{1} << 30)));
+      const v1::Vector3& origin = message.header().layer_origin();
+      result.layer_origin = Eigen::Vector3d(origin.x(), origin.y(), origin.z());
     } else if (message.has_trailer()) {
       trailer = message.trailer();
     } else {
@@ -203,6 +207,40 @@ Status MapClient::RemoveObject(const std::string& label, const std::string& map)
   request.set_map(map);
   v1::RemoveObjectResponse response;
   return FromGrpcStatus(stub_->RemoveObject(&context, request, &response));
+}
+
+namespace {
+constexpr std::chrono::minutes kRemovalTimeout{10};
+}  // namespace
+
+StatusOr<RemovedCounts> MapClient::RemoveSession(const std::string& map,
+                                                 const std::string& session) {
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + kRemovalTimeout);
+  v1::RemoveSessionRequest request;
+  request.set_map(map);
+  request.set_session(session);
+  v1::RemoveSessionResponse response;
+  SEMMAP_RETURN_IF_ERROR(FromGrpcStatus(stub_->RemoveSession(&context, request, &response)));
+  RemovedCounts counts;
+  counts.sessions = 1;
+  counts.frames = static_cast<int64_t>(response.frames());
+  counts.keyframes = static_cast<int64_t>(response.keyframes());
+  return counts;
+}
+
+StatusOr<RemovedCounts> MapClient::RemoveMap(const std::string& map) {
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + kRemovalTimeout);
+  v1::RemoveMapRequest request;
+  request.set_map(map);
+  v1::RemoveMapResponse response;
+  SEMMAP_RETURN_IF_ERROR(FromGrpcStatus(stub_->RemoveMap(&context, request, &response)));
+  RemovedCounts counts;
+  counts.sessions = static_cast<int64_t>(response.sessions());
+  counts.frames = static_cast<int64_t>(response.frames());
+  counts.keyframes = static_cast<int64_t>(response.keyframes());
+  return counts;
 }
 
 StatusOr<std::unique_ptr<IngestStream>> MapClient::Ingest(const v1::IngestStart& start,

@@ -53,6 +53,11 @@ class MapClient final : public MapQueryInterface {
                                       const std::optional<std::array<uint8_t, 3>>& rgb);
   Status RemoveObject(const std::string& label, const std::string& map);
 
+  // Administration (the server rebuilds the map's layers and objects after a session removal,
+  // so these wait up to 10 minutes). FAILED_PRECONDITION while a stream ingests into the map.
+  StatusOr<RemovedCounts> RemoveSession(const std::string& map, const std::string& session);
+  StatusOr<RemovedCounts> RemoveMap(const std::string& map);
+
   // Opens an ingest stream; fails with the server's status if the start is refused.
   StatusOr<std::unique_ptr<IngestStream>> Ingest(const v1::IngestStart& start,
                                                  IngestStream::AckCallback on_ack = nullptr);

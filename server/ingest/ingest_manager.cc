@@ -1,6 +1,7 @@
 #include "server/ingest/ingest_manager.h"
 
 #include <algorithm>
+#include <cstdio>
 
 namespace semmap {
 
@@ -21,9 +22,16 @@ StatusOr<std::shared_ptr<IngestSession>> IngestManager::Open(std::shared_ptr<Ing
   std::lock_guard lock(mutex_);
   if (shutting_down_) return UnavailableError("the server is shutting down");
   ReapFinishedLocked();
-  auto session = std::make_shared<IngestSession>(
-      std::move(sink), writer_, options_,
-      [this](const SessionInfo& info, bool visual) { return PipelinesFor(info, visual); });
+  if (sessions_.size() >= options_.max_streams) {
+    return ResourceExhaustedError(
+        "the server is at its limit of " + std::to_string(options_.max_streams) +
+        " concurrent ingest streams (semmapd --max-streams); try again when one has ended");
+  }
+  SEMMAP_ASSIGN_OR_RETURN(std::shared_ptr<IngestSession> session,
+                          IngestSession::Start(std::move(sink), writer_, options_,
+                                               [this](const SessionInfo& info, bool visual) {
+                                                 return PipelinesFor(info, visual);
+                                               }));
   sessions_.push_back(session);
   return session;
 }
@@ -59,6 +67,10 @@ void IngestManager::Join() {
 
 StatusOr<MapPipelines> IngestManager::PipelinesFor(const SessionInfo& session, bool visual) {
   std::lock_guard lock(pipelines_mutex_);
+  if (busy_maps_.count(session.map_id) != 0) {
+    return UnavailableError("map '" + session.map_name +
+                            "' is being changed by an administrative removal; try again shortly");
+  }
   MapPipelines& p = pipelines_[session.map_id];
   if (!p.layers && options_.layers.enabled) {
     // Started with the map's stored keyframes (earlier sessions, before a restart), read on the
@@ -94,6 +106,129 @@ StatusOr<MapPipelines> IngestManager::PipelinesFor(const SessionInfo& session, b
     p.backend = std::move(backend);
   }
   return p;
+}
+
+namespace {
+
+// Stops a map's pipelines: the back end first (its last corrections go to the others).
+void StopPipelines(MapPipelines& p) {
+  if (p.backend) p.backend->Stop();
+  if (p.layers) p.layers->Stop();
+  if (p.objects) p.objects->Stop();
+}
+
+}  // namespace
+
+Status IngestManager::BeginMapChange(int64_t map_id, const std::string& map_name) {
+  MapPipelines taken;
+  {
+    std::lock_guard lock(pipelines_mutex_);
+    if (busy_maps_.count(map_id) != 0) {
+      return FailedPreconditionError("map '" + map_name + "' is already being changed");
+    }
+    busy_maps_.insert(map_id);
+  }
+  {
+    // A session that created its row but has not reached PipelinesFor yet fails there (busy).
+    std::unique_lock lock(mutex_);
+    ReapFinishedLocked();
+    const bool streaming = std::any_of(sessions_.begin(), sessions_.end(),
+                                       [&](const auto& s) { return s->map_id() == map_id; });
+    lock.unlock();
+    if (streaming) {
+      EndMapChange(map_id);
+      return FailedPreconditionError("map '" + map_name +
+                                     "' has an ingest stream running; remove it after the stream "
+                                     "has ended");
+    }
+  }
+  {
+    std::lock_guard lock(pipelines_mutex_);
+    auto it = pipelines_.find(map_id);
+    if (it != pipelines_.end()) {
+      taken = std::move(it->second);
+      pipelines_.erase(it);
+    }
+  }
+  StopPipelines(taken);  // they persist what they hold; the removal then replaces it
+  return OkStatus();
+}
+
+void IngestManager::EndMapChange(int64_t map_id) {
+  std::lock_guard lock(pipelines_mutex_);
+  busy_maps_.erase(map_id);
+}
+
+Status IngestManager::RebuildDerived(int64_t map_id, const std::string& map_name) {
+  MapPipelines p;
+  if (options_.layers.enabled) {
+    SEMMAP_ASSIGN_OR_RETURN(p.layers, MapLayerBuilder::Start(map_id, map_name, options_.layers,
+                                                             writer_, /*restore=*/true));
+    SEMMAP_RETURN_IF_ERROR(p.layers->Flush().WithContext("rebuilding the map layers"));
+  }
+  if (objects_ && options_.objects.enabled) {
+    SEMMAP_ASSIGN_OR_RETURN(p.objects, ObjectMapper::Start(map_id, options_.objects, objects_,
+                                                           writer_, /*restore=*/true));
+    SEMMAP_RETURN_IF_ERROR(p.objects->Flush().WithContext("re-placing the map's objects"));
+  }
+  // Kept for the map's next session (its back end is created then, from the store).
+  std::lock_guard lock(pipelines_mutex_);
+  pipelines_[map_id] = std::move(p);
+  return OkStatus();
+}
+
+StatusOr<RemovedCounts> IngestManager::RemoveSession(const std::string& map,
+                                                     const std::string& session,
+                                                     const CancelCheck& cancelled) {
+  SessionInfo info;
+  SEMMAP_RETURN_IF_ERROR(writer_->RunSync([&](MapStore& store) -> Status {
+    SEMMAP_ASSIGN_OR_RETURN(info, store.GetSession(map, session));
+    return OkStatus();
+  }));
+  SEMMAP_RETURN_IF_ERROR(BeginMapChange(info.map_id, map));
+  RemovedCounts counts;
+  Status status = writer_->RunSync([&](MapStore& store) -> Status {
+    SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancelled));
+    SEMMAP_ASSIGN_OR_RETURN(counts, store.RemoveSession(info.id));
+    return OkStatus();
+  });
+  // Whether or not the removal committed, the map's products are rebuilt from the store.
+  Status rebuilt = RebuildDerived(info.map_id, map);
+  EndMapChange(info.map_id);
+  SEMMAP_RETURN_IF_ERROR(status);
+  SEMMAP_RETURN_IF_ERROR(rebuilt);
+  std::fprintf(stderr,
+               "semmapd: removed session '%s' of map '%s' (%lld frames, %lld keyframes); layers "
+               "and objects rebuilt\n",
+               session.c_str(), map.c_str(), static_cast<long long>(counts.frames),
+               static_cast<long long>(counts.keyframes));
+  return counts;
+}
+
+StatusOr<RemovedCounts> IngestManager::RemoveMap(const std::string& map,
+                                                 const CancelCheck& cancelled) {
+  MapInfo info;
+  SEMMAP_RETURN_IF_ERROR(writer_->RunSync([&](MapStore& store) -> Status {
+    SEMMAP_ASSIGN_OR_RETURN(info, store.GetMap(map));
+    return OkStatus();
+  }));
+  SEMMAP_RETURN_IF_ERROR(BeginMapChange(info.id, map));
+  RemovedCounts counts;
+  Status status = writer_->RunSync([&](MapStore& store) -> Status {
+    SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancelled));
+    SEMMAP_ASSIGN_OR_RETURN(counts, store.RemoveMap(info.id));
+    return OkStatus();
+  });
+  if (!status.ok()) {
+    // Nothing was removed: the map keeps working with fresh pipelines on next use.
+    EndMapChange(info.id);
+    return status;
+  }
+  EndMapChange(info.id);
+  std::fprintf(stderr, "semmapd: removed map '%s' (%lld sessions, %lld frames, %lld keyframes)\n",
+               map.c_str(), static_cast<long long>(counts.sessions),
+               static_cast<long long>(counts.frames), static_cast<long long>(counts.keyframes));
+  return counts;
 }
 
 size_t IngestManager::active_sessions() {

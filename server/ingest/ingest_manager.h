@@ -3,11 +3,15 @@
 // the network threads.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
+#include <string>
 #include <vector>
 
+#include "common/cancel_check.h"
 #include "server/ingest/ingest_options.h"
 #include "server/ingest/ingest_session.h"
 
@@ -22,8 +26,18 @@ class IngestManager {
                 const ObjectCatalog* objects = nullptr);
   ~IngestManager();
 
-  // UNAVAILABLE once shutdown has begun.
+  // UNAVAILABLE once shutdown has begun; RESOURCE_EXHAUSTED at options.max_streams live streams
+  // or when the stream's threads cannot be started.
   StatusOr<std::shared_ptr<IngestSession>> Open(std::shared_ptr<IngestSink> sink);
+
+  // Administration; `cancelled` is asked on the writer thread right before the removal commits.
+  // Removes a session; the map's layers and object instances are rebuilt from what is left
+  // before this returns, and its SLAM graph is reloaded by the next session. NOT_FOUND for an
+  // unknown map or session, FAILED_PRECONDITION while a stream ingests into the map.
+  StatusOr<RemovedCounts> RemoveSession(const std::string& map, const std::string& session,
+                                        const CancelCheck& cancelled);
+  // Removes a map with all its sessions. Same errors.
+  StatusOr<RemovedCounts> RemoveMap(const std::string& map, const CancelCheck& cancelled);
   // Every session stores what it has queued and finishes with UNAVAILABLE; no new sessions.
   void BeginShutdown();
   // Waits for every session's worker to finish (call after BeginShutdown).
@@ -33,6 +47,12 @@ class IngestManager {
  private:
   void ReapFinishedLocked();
   StatusOr<MapPipelines> PipelinesFor(const SessionInfo& session, bool visual);
+  // Marks the map busy (new sessions on it fail UNAVAILABLE), checks no stream ingests into it,
+  // and stops and drops its pipelines. FAILED_PRECONDITION when a stream is live.
+  Status BeginMapChange(int64_t map_id, const std::string& map_name);
+  void EndMapChange(int64_t map_id);
+  // Rebuilds a map's layers and object instances from the store (after a session removal).
+  Status RebuildDerived(int64_t map_id, const std::string& map_name);
 
   StorageWriter* writer_;
   const IngestOptions options_;
@@ -44,6 +64,7 @@ class IngestManager {
   std::mutex pipelines_mutex_;
   // They live as long as the server: a map's graph and layers keep growing across its sessions.
   std::map<int64_t, MapPipelines> pipelines_;
+  std::set<int64_t> busy_maps_;  // being changed by an administrative removal
 };
 
 }  // namespace semmap

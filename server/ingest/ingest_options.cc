@@ -1,5 +1,6 @@
 #include "server/ingest/ingest_options.h"
 
+#include <cmath>
 #include <string>
 
 namespace semmap {
@@ -11,6 +12,13 @@ Status IngestOptions::Validate() const {
   }
   if (max_frame_bytes < 1024) {
     return InvalidArgumentError("max frame bytes must be at least 1024");
+  }
+  if (max_streams < 1 || max_streams > 10000) {
+    return InvalidArgumentError("max concurrent ingest streams must be in 1..10000 (got " +
+                                std::to_string(max_streams) + ")");
+  }
+  if (!std::isfinite(idle_timeout_s) || idle_timeout_s < 0 || idle_timeout_s > 86400) {
+    return InvalidArgumentError("stream idle timeout must be in [0, 86400] s (0: none)");
   }
   SEMMAP_RETURN_IF_ERROR(keyframes.Validate().WithContext("keyframe options"));
   SEMMAP_RETURN_IF_ERROR(layers.Validate());

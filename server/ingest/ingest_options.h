@@ -3,6 +3,7 @@
 #include <cstddef>
 
 #include "common/status.h"
+#include "common/thread_launcher.h"
 #include "server/mapping/map_layer_builder.h"
 #include "server/objects/object_mapper.h"
 #include "server/odometry/rgbd_tracker.h"
@@ -17,6 +18,14 @@ struct IngestOptions {
   size_t queue_capacity = 8;
   // Largest accepted image payload of one frame (colour + depth bytes).
   size_t max_frame_bytes = 48u << 20;
+  // Concurrent ingest streams; one more is refused with RESOURCE_EXHAUSTED (each holds two
+  // threads and up to queue_capacity frames).
+  size_t max_streams = 64;
+  // A stream that sends nothing for this long ends with DEADLINE_EXCEEDED, keeping what it
+  // sent (0: never).
+  double idle_timeout_s = 60;
+  // How sessions start their threads (empty: LaunchThread); tests make it fail.
+  ThreadLauncher launch_thread;
   KeyframeSelectorOptions keyframes;
   // RGBD sessions' front end (its camera and keyframe options come from the session).
   RgbdTrackerOptions tracker;

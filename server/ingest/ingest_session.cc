@@ -3,9 +3,11 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <limits>
 #include <string>
 #include <utility>
 
+#include "common/thread_launcher.h"
 #include "common/time_util.h"
 #include "server/ingest/name_validation.h"
 #include "server/sensor/image_decoding.h"
@@ -27,6 +29,10 @@ Eigen::Matrix<double, 6, 6> OdometryInformation(const FrameEstimate& estimate) {
 
 constexpr int kStopCancelled = 1;
 constexpr int kStopServer = 2;
+constexpr int kStopDeadline = 3;
+
+// Stored seqs are SQLite integers (int64).
+constexpr uint64_t kMaxSeq = static_cast<uint64_t>(std::numeric_limits<int64_t>::max());
 
 // "s-20261122-013045": readable, sortable, unique enough; a suffix resolves collisions.
 std::string GeneratedSessionName() {
@@ -40,6 +46,30 @@ std::string GeneratedSessionName() {
 
 }  // namespace
 
+StatusOr<std::shared_ptr<IngestSession>> IngestSession::Start(std::shared_ptr<IngestSink> sink,
+                                                              StorageWriter* writer,
+                                                              IngestOptions options,
+                                                              MapPipelinesProvider pipelines) {
+  std::shared_ptr<IngestSession> session(
+      new IngestSession(std::move(sink), writer, std::move(options), std::move(pipelines)));
+  const ThreadLauncher& launch =
+      session->options_.launch_thread ? session->options_.launch_thread : LaunchThread;
+  IngestSession* raw = session.get();
+  StatusOr<std::thread> decoder = launch([raw] { raw->RunDecoder(); });
+  if (decoder.ok()) {
+    session->decoder_ = std::move(decoder).value();
+    StatusOr<std::thread> worker = launch([raw] { raw->Run(); });
+    if (worker.ok()) {
+      session->worker_ = std::move(worker).value();
+      return session;
+    }
+    decoder = worker.status();
+  }
+  // The destructor stops and joins whatever did start; the session never reports anything.
+  session->finished_.store(true);
+  return decoder.status().WithContext("ingest stream");
+}
+
 IngestSession::IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer,
                              IngestOptions options, MapPipelinesProvider pipelines)
     : sink_(std::move(sink)),
@@ -47,10 +77,7 @@ IngestSession::IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* wr
       options_(std::move(options)),
       queue_(options_.queue_capacity),
       pipelines_(std::move(pipelines)),
-      started_at_(std::chrono::steady_clock::now()) {
-  decoder_ = std::thread([this] { RunDecoder(); });
-  worker_ = std::thread([this] { Run(); });
-}
+      started_at_(std::chrono::steady_clock::now()) {}
 
 IngestSession::~IngestSession() {
   Stop();
@@ -73,9 +100,9 @@ bool IngestSession::TryEnqueue(IngestMessage& message) {
   return true;
 }
 
-void IngestSession::Cancel() {
+void IngestSession::Cancel(bool deadline_passed) {
   int none = 0;
-  stop_reason_.compare_exchange_strong(none, kStopCancelled);
+  stop_reason_.compare_exchange_strong(none, deadline_passed ? kStopDeadline : kStopCancelled);
   queue_.Shutdown();
 }
 
@@ -87,7 +114,25 @@ void IngestSession::Stop() {
 
 void IngestSession::RunDecoder() {
   std::optional<std::pair<int, int>> size;  // of the start message's camera
-  while (std::optional<IngestMessage> message = queue_.Pop()) {
+  const auto idle_timeout = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(options_.idle_timeout_s));
+  for (;;) {
+    std::optional<IngestMessage> message =
+        options_.idle_timeout_s > 0 ? queue_.PopFor(idle_timeout) : queue_.Pop();
+    if (!message && !queue_.is_shutdown()) {
+      // Nothing from the client for the whole timeout: end the session, keeping what it sent.
+      StagedMessage timeout;
+      timeout.idle_timeout = true;
+      char seconds[32];
+      std::snprintf(seconds, sizeof(seconds), "%g", options_.idle_timeout_s);
+      timeout.message = IngestInvalid{
+          DeadlineExceededError(std::string("no message from the client for ") + seconds +
+                                " s (the server's idle timeout, semmapd --stream-idle-timeout-s)")};
+      queue_.Shutdown();
+      if (staged_.Push(std::move(timeout))) staged_.Shutdown();
+      return;
+    }
+    if (!message) break;
     sink_->OnQueueRoom();
     StagedMessage staged;
     if (const auto* start = std::get_if<IngestStartRequest>(&*message)) {
@@ -110,17 +155,27 @@ void IngestSession::Run() {
   while (std::optional<StagedMessage> staged = staged_.Pop()) {
     Status status = Handle(*staged);
     if (!status.ok()) {
-      Finish(std::move(status));
+      Finish(std::move(status),
+             staged->idle_timeout ? SessionEndReason::kIdleTimeout : SessionEndReason::kError);
       return;
     }
     if (ended_) {
-      Finish(OkStatus());
+      Finish(OkStatus(), SessionEndReason::kCompleted);
       return;
     }
   }
   // The queue was shut down and drained before the client's end message.
-  Finish(stop_reason_.load() == kStopCancelled ? CancelledError("the client cancelled the stream")
-                                               : UnavailableError("the server is shutting down"));
+  switch (stop_reason_.load()) {
+    case kStopCancelled:
+      Finish(CancelledError("the client cancelled the stream"), SessionEndReason::kCancelled);
+      break;
+    case kStopDeadline:
+      Finish(DeadlineExceededError("the call's deadline passed"), SessionEndReason::kCancelled);
+      break;
+    default:
+      Finish(UnavailableError("the server is shutting down"), SessionEndReason::kServerStopped);
+      break;
+  }
 }
 
 Status IngestSession::Handle(StagedMessage& staged) {
@@ -195,6 +250,7 @@ Status IngestSession::HandleStart(const IngestStartRequest& start) {
     });
   }
   session_ = created;
+  map_id_.store(created.map_id);
   sink_->OnStarted(*session_);
   return OkStatus();
 }
@@ -216,6 +272,10 @@ StatusOr<IngestSession::DecodedImages> IngestSession::DecodeImages(const IngestF
 
 StatusOr<DecodedFrame> IngestSession::Validate(
     const IngestFrame& frame, std::optional<StatusOr<DecodedImages>>& images) const {
+  if (frame.seq > kMaxSeq) {
+    return InvalidArgumentError("frame seq " + std::to_string(frame.seq) +
+                                " is above the largest allowed seq, 2^63 - 1");
+  }
   if (last_seq_ && frame.seq <= *last_seq_) {
     return InvalidArgumentError("frame seq " + std::to_string(frame.seq) +
                                 " is not greater than the previous seq " +
@@ -444,7 +504,7 @@ std::optional<uint64_t> IngestSession::durable_seq() const {
   return durable_seq_;
 }
 
-void IngestSession::Finish(Status status) {
+void IngestSession::Finish(Status status, SessionEndReason reason) {
   // The back end's writes for this session (loop links, re-anchored poses) land before the
   // final status too, so the stored trajectory is final when the client hears it.
   uint64_t loop_closures = 0;
@@ -522,10 +582,13 @@ void IngestSession::Finish(Status status) {
     if (status.ok() && !write_error_.ok()) status = write_error_;
   }
   IngestSummaryInfo summary;
+  if (!status.ok() && reason == SessionEndReason::kCompleted) reason = SessionEndReason::kError;
   if (session_) {
     const int64_t session_id = session_->id;
-    Status ended = writer_->RunSync(
-        [&](MapStore& store) { return store.EndSession(session_id, UnixNowNs()); });
+    const std::string message = status.ok() ? std::string() : status.ToString();
+    Status ended = writer_->RunSync([&](MapStore& store) {
+      return store.EndSession(session_id, UnixNowNs(), reason, message);
+    });
     if (status.ok() && !ended.ok()) status = ended.WithContext("ending the session");
     summary.map = session_->map_name;
     summary.session = session_->name;

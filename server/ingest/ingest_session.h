@@ -36,10 +36,13 @@ using MapPipelinesProvider =
 
 class IngestSession {
  public:
-  // `pipelines` may be empty: visual sessions then run their front end alone (no loop closure)
-  // and no map layers are built.
-  IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer, IngestOptions options,
-                MapPipelinesProvider pipelines = nullptr);
+  // Starts the session's two threads (through options.launch_thread). `pipelines` may be empty:
+  // visual sessions then run their front end alone (no loop closure) and no map layers are
+  // built. RESOURCE_EXHAUSTED when a thread cannot be started (nothing is left running).
+  static StatusOr<std::shared_ptr<IngestSession>> Start(std::shared_ptr<IngestSink> sink,
+                                                        StorageWriter* writer,
+                                                        IngestOptions options,
+                                                        MapPipelinesProvider pipelines = nullptr);
   ~IngestSession();  // stops and joins the worker
   IngestSession(const IngestSession&) = delete;
   IngestSession& operator=(const IngestSession&) = delete;
@@ -52,13 +55,19 @@ class IngestSession {
   bool TryEnqueue(IngestMessage& message);
   bool HasRoom() const { return queue_.size() < queue_.capacity(); }
 
-  // The client went away: store what is queued, then finish with CANCELLED.
-  void Cancel();
+  // The client went away (or its deadline passed): store what is queued, then finish with
+  // CANCELLED.
+  void Cancel(bool deadline_passed = false);
   // The server is stopping: store what is queued, then finish with UNAVAILABLE.
   void Stop();
   bool finished() const { return finished_.load(); }
+  // The map the session streams into; 0 until its start message was accepted.
+  int64_t map_id() const { return map_id_.load(); }
 
  private:
+  IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer, IngestOptions options,
+                MapPipelinesProvider pipelines);
+
   // A message on its way from the decoder to the worker: frames carry their decoded images
   // (or the decoding error) next to the wire message, which keyframes store as received.
   struct DecodedImages {
@@ -69,6 +78,7 @@ class IngestSession {
     IngestMessage message;
     std::optional<StatusOr<DecodedImages>> images;  // frames that were worth decoding
     double decode_ms = 0;
+    bool idle_timeout = false;  // the message is the decoder's IngestInvalid after the timeout
   };
 
   void RunDecoder();
@@ -84,7 +94,9 @@ class IngestSession {
                      const FrameEstimate& estimate);
   void OnCommitted(const Status& status, uint64_t seq,
                    std::chrono::steady_clock::time_point submitted_at);
-  void Finish(Status status);
+  // `reason` is how the stream ended as the worker saw it; a failing drain or write turns a
+  // completed end into an error.
+  void Finish(Status status, SessionEndReason reason);
   // Hands the frame (and its keyframe) to the back end, after its write was submitted.
   // A keyframe goes to object recognition (features, or images for KNOWN_POSES sessions).
   Status FeedObjects(const DecodedFrame& frame, const FrameEstimate& estimate);
@@ -136,7 +148,8 @@ class IngestSession {
   std::atomic<uint64_t> keyframes_{0};
   uint64_t lost_frames_ = 0;
   uint64_t segments_ = 0;            // restarts after a sustained tracking loss
-  std::atomic<int> stop_reason_{0};  // 0 none, 1 cancelled, 2 server stop
+  std::atomic<int> stop_reason_{0};  // 0 none, 1 cancelled, 2 server stop, 3 deadline passed
+  std::atomic<int64_t> map_id_{0};
   std::atomic<bool> finished_{false};
   std::thread decoder_;
   std::thread worker_;

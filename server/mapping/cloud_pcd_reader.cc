@@ -4,7 +4,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <optional>
 #include <string>
+
+#include "common/checked_math.h"
 
 namespace semmap {
 namespace {
@@ -59,7 +62,9 @@ StatusOr<std::vector<CloudPoint>> ReadCloudPcd(std::string_view pcd) {
                                 std::to_string(points));
   }
   constexpr size_t kPointBytes = 16;
-  if (in.size() / kPointBytes != points || in.size() % kPointBytes != 0) {
+  // Checked: POINTS 2^60 times 16 bytes wraps to 0, which an empty body would match.
+  const std::optional<uint64_t> data_bytes = CheckedMul(points, kPointBytes);
+  if (!data_bytes || *data_bytes != in.size()) {
     return DataLossError("PCD data holds " + std::to_string(in.size()) + " bytes, the header " +
                          "announces " + std::to_string(points) + " points of 16 bytes");
   }

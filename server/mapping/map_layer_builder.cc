@@ -4,8 +4,10 @@
 #include <cstdio>
 #include <string>
 
+#include "common/thread_launcher.h"
 #include "common/thread_priority.h"
 #include "common/time_util.h"
+#include "server/mapping/layer_frame.h"
 #include "server/mapping/stored_keyframe_clouds.h"
 
 namespace semmap {
@@ -54,7 +56,8 @@ StatusOr<std::unique_ptr<MapLayerBuilder>> MapLayerBuilder::Start(int64_t map_id
   SEMMAP_ASSIGN_OR_RETURN(OccupancyMap occupancy, OccupancyMap::Create(options.occupancy));
   std::unique_ptr<MapLayerBuilder> builder(new MapLayerBuilder(
       map_id, std::move(map_name), std::move(options), writer, std::move(occupancy)));
-  builder->worker_ = std::thread([raw = builder.get(), restore] { raw->Run(restore); });
+  SEMMAP_ASSIGN_OR_RETURN(builder->worker_,
+                          LaunchThread([raw = builder.get(), restore] { raw->Run(restore); }));
   return builder;
 }
 
@@ -153,6 +156,7 @@ void MapLayerBuilder::Run(bool restore) {
 void MapLayerBuilder::Restore() {
   std::vector<StoredKeyframeCloud> stored;
   const Status status = writer_->RunSync([&](MapStore& store) -> Status {
+    SEMMAP_ASSIGN_OR_RETURN(origin_, ReadLayerOrigin(store, map_name_));
     SEMMAP_ASSIGN_OR_RETURN(stored, LoadKeyframeClouds(store, map_name_, "", options_.occupancy));
     return OkStatus();
   });
@@ -184,7 +188,7 @@ void MapLayerBuilder::Handle(KeyframeImages& images) {
   if (entry.inserted) rebuild_needed_ = true;
   entry.cloud = std::make_shared<const KeyframeCloud>(std::move(cloud).value());
   entry.inserted = false;
-  InsertIfReady(entry);
+  InsertIfReady({images.session_id, images.seq}, entry);
   if (entry.inserted) {
     std::lock_guard lock(mutex_);
     insert_ms_.Add(MillisecondsSince(t0));
@@ -193,7 +197,8 @@ void MapLayerBuilder::Handle(KeyframeImages& images) {
 
 void MapLayerBuilder::Handle(const PoseUpdate& update) {
   for (const KeyframePose& pose : update.poses) {
-    Entry& entry = entries_[{pose.session_id, pose.seq}];
+    const Key key{pose.session_id, pose.seq};
+    Entry& entry = entries_[key];
     if (entry.inserted && entry.T_world_keyframe &&
         MovedBeyond(*entry.T_world_keyframe, pose.T_world_keyframe,
                     options_.rebuild_min_translation_m, options_.rebuild_min_rotation_rad)) {
@@ -202,7 +207,7 @@ void MapLayerBuilder::Handle(const PoseUpdate& update) {
     entry.T_world_keyframe = pose.T_world_keyframe;
     if (!entry.inserted && entry.cloud) {
       const Clock::time_point t0 = Clock::now();
-      InsertIfReady(entry);
+      InsertIfReady(key, entry);
       if (entry.inserted) {
         std::lock_guard lock(mutex_);
         insert_ms_.Add(MillisecondsSince(t0));
@@ -211,11 +216,39 @@ void MapLayerBuilder::Handle(const PoseUpdate& update) {
   }
 }
 
-void MapLayerBuilder::InsertIfReady(Entry& entry) {
+std::optional<Eigen::Isometry3d> MapLayerBuilder::InLayerFrame(const Key& key, const Entry& entry) {
+  if (!origin_) {
+    origin_ = LayerOriginFor(entry.T_world_keyframe->translation());
+    if (!origin_->isZero()) {
+      std::fprintf(stderr,
+                   "semmapd: map '%s' layers: built around (%.0f, %.0f, %.0f) m, where its first "
+                   "keyframe is (exports give this layer_origin)\n",
+                   map_name_.c_str(), origin_->x(), origin_->y(), origin_->z());
+    }
+  }
+  const Eigen::Isometry3d T_layer_keyframe = LayerFromMap(*origin_) * *entry.T_world_keyframe;
+  if (WithinLayerReach(T_layer_keyframe, options_.occupancy)) return T_layer_keyframe;
+  if (!reach_warned_) {
+    reach_warned_ = true;
+    const Eigen::Vector3d t = entry.T_world_keyframe->translation();
+    std::fprintf(stderr,
+                 "semmapd: map '%s' layers: keyframe seq %lld at (%.1f, %.1f, %.1f) m is more than "
+                 "%.0f m from the layers' origin (%.0f, %.0f, %.0f); keyframes that far are left "
+                 "out of the 3D layers (they are stored and tracked; a finer --map-resolution "
+                 "reaches less far, a coarser one further)\n",
+                 map_name_.c_str(), static_cast<long long>(key.second), t.x(), t.y(), t.z(),
+                 LayerReachM(options_.occupancy), origin_->x(), origin_->y(), origin_->z());
+  }
+  return std::nullopt;
+}
+
+void MapLayerBuilder::InsertIfReady(const Key& key, Entry& entry) {
   if (!entry.cloud || !entry.T_world_keyframe) return;
   dirty_ = true;
   if (rebuild_needed_) return;  // the coming rebuild takes it in
-  const Status status = occupancy_.Insert(*entry.cloud, *entry.T_world_keyframe);
+  const std::optional<Eigen::Isometry3d> T_layer_keyframe = InLayerFrame(key, entry);
+  if (!T_layer_keyframe) return;
+  const Status status = occupancy_.Insert(*entry.cloud, *T_layer_keyframe);
   if (!status.ok()) {
     RecordError(status);
     return;
@@ -225,15 +258,21 @@ void MapLayerBuilder::InsertIfReady(Entry& entry) {
   ++stats_.keyframes_inserted;
 }
 
-std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> MapLayerBuilder::PlacedClouds()
-    const {
+std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> MapLayerBuilder::PlacedClouds() {
   std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> out;
   out.reserve(entries_.size());
+  uint64_t beyond = 0;
   for (const auto& [key, entry] : entries_) {
-    if (entry.cloud && entry.T_world_keyframe) {
-      out.emplace_back(entry.cloud.get(), *entry.T_world_keyframe);
+    if (!entry.cloud || !entry.T_world_keyframe) continue;
+    const std::optional<Eigen::Isometry3d> T_layer_keyframe = InLayerFrame(key, entry);
+    if (T_layer_keyframe) {
+      out.emplace_back(entry.cloud.get(), *T_layer_keyframe);
+    } else {
+      ++beyond;
     }
   }
+  std::lock_guard lock(mutex_);
+  stats_.keyframes_beyond_reach = beyond;
   return out;
 }
 
@@ -248,7 +287,9 @@ void MapLayerBuilder::Rebuild() {
   occupancy_ = std::move(rebuilt).value();  // the swap: the old tree served until now
   size_t inserted = 0;
   for (auto& [key, entry] : entries_) {
-    entry.inserted = entry.cloud && entry.T_world_keyframe;
+    entry.inserted =
+        entry.cloud && entry.T_world_keyframe &&
+        WithinLayerReach(LayerFromMap(*origin_) * *entry.T_world_keyframe, options_.occupancy);
     if (entry.inserted) ++inserted;
   }
   dirty_ = true;
@@ -295,6 +336,8 @@ void MapLayerBuilder::Persist() {
   const int64_t now = NowUnixNs();
   batch.blobs.push_back({map_id_, kOccupancyBlobKind, std::move(ot).value(), now});
   batch.blobs.push_back({map_id_, kCloudBlobKind, std::move(pcd).value(), now});
+  if (origin_)
+    batch.blobs.push_back({map_id_, kLayerOriginBlobKind, EncodeLayerOrigin(*origin_), now});
   writes_.Submit(std::move(batch));
   std::lock_guard lock(mutex_);
   persist_ms_.Add(MillisecondsSince(t0));

@@ -15,6 +15,10 @@
 //
 // A builder started for a map that already has keyframes (after a restart) first rebuilds its
 // layers from the stored keyframe images and corrected poses, on its own thread.
+//
+// The layers are built in the map's layer frame (layer_frame.h: the map frame shifted by a
+// per-map origin, persisted as the "layers.origin" blob); keyframes beyond the occupancy tree's
+// reach from that origin are left out of the layers, counted and logged once, never an error.
 #pragma once
 
 #include <chrono>
@@ -63,6 +67,7 @@ struct MapLayerOptions {
 
 struct MapLayerStats {
   uint64_t keyframes_inserted = 0;
+  uint64_t keyframes_beyond_reach = 0;  // placed too far from the layer origin: left out
   uint64_t restored_keyframes = 0;
   uint64_t rebuilds = 0;
   uint64_t persists = 0;
@@ -132,11 +137,14 @@ class MapLayerBuilder {
   void Restore();
   void Handle(KeyframeImages& images);
   void Handle(const PoseUpdate& update);
-  void InsertIfReady(Entry& entry);
+  void InsertIfReady(const Key& key, Entry& entry);
+  // T_layer_keyframe of a placed entry; nullopt (logged once) when it is beyond the layers' reach.
+  std::optional<Eigen::Isometry3d> InLayerFrame(const Key& key, const Entry& entry);
   void Rebuild();
   void Persist();
   void RecordError(const Status& status);
-  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> PlacedClouds() const;
+  // Every placed keyframe in the layer frame (those beyond reach left out and counted).
+  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> PlacedClouds();
 
   const int64_t map_id_;
   const std::string map_name_;
@@ -146,6 +154,9 @@ class MapLayerBuilder {
 
   // Builder-thread state.
   std::map<Key, Entry> entries_;
+  // Set by the restore or by the first placed keyframe.
+  std::optional<Eigen::Vector3d> origin_;
+  bool reach_warned_ = false;
   OccupancyMap occupancy_;
   bool rebuild_needed_ = false;
   bool dirty_ = false;  // layers changed since the last persist

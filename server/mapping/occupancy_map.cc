@@ -5,11 +5,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <limits>
 #include <new>
+#include <optional>
 #include <sstream>
+
+#include "common/checked_math.h"
 
 namespace semmap {
 namespace {
@@ -28,6 +33,27 @@ constexpr size_t kColorNodeBytes = sizeof(float) + kColourBytes + 1;
 
 bool Finite(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
 
+// The key of a world point; false outside the tree's +-2^15 voxels. OctoMap's own
+// coordToKeyChecked converts the scaled coordinate to int first, which is undefined for a
+// point beyond the int range (1e30 m), so such points are rejected here.
+bool KeyOf(const octomap::ColorOcTree& tree, const Eigen::Vector3d& p, octomap::OcTreeKey& key) {
+  const double half_extent = tree.getResolution() * 32768.0;
+  if (!p.allFinite() || p.cwiseAbs().maxCoeff() >= half_extent) return false;
+  return tree.coordToKeyChecked(p.x(), p.y(), p.z(), key);
+}
+
+// OctoMap prints the header's "res" with the stream's precision (6 digits by default), so a
+// 0.0333333333 m map would read back with another resolution: the fewest digits (at least 6,
+// OctoMap's own "0.05") that read back as the same double.
+int RoundTripPrecision(double v) {
+  for (int digits = 6; digits < std::numeric_limits<double>::max_digits10; ++digits) {
+    char text[40];
+    std::snprintf(text, sizeof(text), "%.*g", digits, v);
+    if (std::strtod(text, nullptr) == v) return digits;
+  }
+  return std::numeric_limits<double>::max_digits10;
+}
+
 // Walks an .ot node stream exactly as OcTreeBaseImpl::readNodesRecurs would read it, with
 // bounds: every read inside the data, no children below the leaf depth, finite values.
 class NodeStreamChecker {
@@ -40,7 +66,9 @@ class NodeStreamChecker {
       if (!data_.empty()) return DataLossError("octree stream: data after an empty tree");
       return OkStatus();
     }
-    if (data_.size() % node_bytes_ != 0 || data_.size() / node_bytes_ != expected_nodes) {
+    // Checked: a header size of 2^61 nodes times 8 bytes wraps to 0.
+    const std::optional<uint64_t> data_bytes = CheckedMul(expected_nodes, node_bytes_);
+    if (!data_bytes || *data_bytes != data_.size()) {
       return DataLossError("octree stream: " + std::to_string(data_.size()) + " data bytes for " +
                            std::to_string(expected_nodes) + " nodes");
     }
@@ -387,20 +415,16 @@ Status OccupancyMap::Insert(const KeyframeCloud& cloud, const Eigen::Isometry3d&
 }
 
 VoxelState OccupancyMap::Occupancy(const Eigen::Vector3d& p_world) const {
-  if (!p_world.allFinite()) return VoxelState::kUnknown;
   octomap::OcTreeKey key;
-  if (!tree_->coordToKeyChecked(p_world.x(), p_world.y(), p_world.z(), key)) {
-    return VoxelState::kUnknown;
-  }
+  if (!KeyOf(*tree_, p_world, key)) return VoxelState::kUnknown;
   const octomap::ColorOcTreeNode* node = tree_->search(key);
   if (node == nullptr) return VoxelState::kUnknown;
   return tree_->isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree;
 }
 
 std::optional<std::array<uint8_t, 3>> OccupancyMap::ColourAt(const Eigen::Vector3d& p_world) const {
-  if (!p_world.allFinite()) return std::nullopt;
   octomap::OcTreeKey key;
-  if (!tree_->coordToKeyChecked(p_world.x(), p_world.y(), p_world.z(), key)) return std::nullopt;
+  if (!KeyOf(*tree_, p_world, key)) return std::nullopt;
   // search() ends at a leaf (possibly a pruned, larger one) or finds nothing.
   const octomap::ColorOcTreeNode* node = tree_->search(key);
   if (node == nullptr || !tree_->isNodeOccupied(node)) return std::nullopt;
@@ -446,6 +470,7 @@ std::vector<OccupancyMap::Voxel> OccupancyMap::OccupiedVoxels() const {
 StatusOr<std::string> OccupancyMap::SerializeOt() const {
   try {
     std::ostringstream out;
+    out.precision(RoundTripPrecision(tree_->getResolution()));
     if (!tree_->write(out) || !out) return InternalError("occupancy map: .ot write failed");
     return std::move(out).str();
   } catch (const std::exception& e) {
@@ -467,6 +492,7 @@ StatusOr<std::string> OccupancyMap::SerializeBt() const {
       if (copy.size() != tree_->size()) return InternalError("occupancy map: .bt copy failed");
     }
     std::ostringstream out;
+    out.precision(RoundTripPrecision(copy.getResolution()));
     if (!copy.writeBinary(out) || !out) return InternalError("occupancy map: .bt write failed");
     return std::move(out).str();
   } catch (const std::bad_alloc&) {

@@ -3,6 +3,7 @@
 #include <string>
 #include <utility>
 
+#include "server/mapping/layer_frame.h"
 #include "server/sensor/image_decoding.h"
 
 namespace semmap {
@@ -31,6 +32,27 @@ StatusOr<KeyframeCloud> KeyframeCloudFromRecord(const KeyframeRecord& record,
   StatusOr<DecodedDepth> decoded = DecodeDepth(depth, width, height);
   if (!decoded.ok()) return DataLossError(where + ": stored depth: " + decoded.status().message());
   return MakeKeyframeCloud(*decoded, *bgr, camera, options);
+}
+
+StatusOr<std::optional<Eigen::Vector3d>> ReadLayerOrigin(MapStore& store,
+                                                         const std::string& map_name) {
+  SEMMAP_ASSIGN_OR_RETURN(MapInfo map, store.GetMap(map_name));
+  StatusOr<MapBlob> blob = store.GetBlob(map.id, kLayerOriginBlobKind);
+  if (blob.ok()) {
+    SEMMAP_ASSIGN_OR_RETURN(Eigen::Vector3d origin, DecodeLayerOrigin(blob->data));
+    return std::optional<Eigen::Vector3d>(origin);
+  }
+  if (blob.status().code() != StatusCode::kNotFound) return blob.status();
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<SessionInfo> sessions, store.ListSessions(map_name));
+  for (const SessionInfo& session : sessions) {  // in creation order
+    SEMMAP_ASSIGN_OR_RETURN(std::vector<KeyframeRecord> keyframes,
+                            store.ListKeyframes(session.id, /*with_images=*/false));
+    if (!keyframes.empty()) {
+      return std::optional<Eigen::Vector3d>(
+          LayerOriginFor(keyframes.front().T_world_camera.translation()));
+    }
+  }
+  return std::optional<Eigen::Vector3d>();
 }
 
 StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(MapStore& store,

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,12 @@ struct StoredKeyframeCloud {
 StatusOr<KeyframeCloud> KeyframeCloudFromRecord(const KeyframeRecord& record,
                                                 const CameraCalibration& camera,
                                                 const OccupancyMapOptions& options);
+
+// The origin of a map's layer frame (layer_frame.h): the stored one, or for a map that has none
+// yet (its layers were never persisted, or predate layer origins) the one its first stored
+// keyframe gives; nullopt for a map without keyframes. DATA_LOSS for a damaged stored origin.
+StatusOr<std::optional<Eigen::Vector3d>> ReadLayerOrigin(MapStore& store,
+                                                         const std::string& map_name);
 
 // Every keyframe with depth of the map's sessions (only `session_name` when not empty; NOT_FOUND
 // for an unknown one), in session then seq order. Keyframes without depth are skipped.

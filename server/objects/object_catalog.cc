@@ -78,7 +78,8 @@ StatusOr<std::unique_ptr<ObjectCatalog>> ObjectCatalog::Load(StorageWriter* writ
   return catalog;
 }
 
-StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input) {
+StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input,
+                                             const CancelCheck& cancelled) {
   SEMMAP_RETURN_IF_ERROR(ValidateName("object label", input.label));
   if (input.photos.empty()) {
     return InvalidArgumentError("object '" + input.label + "' needs at least one photo");
@@ -115,6 +116,7 @@ StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input) {
       SEMMAP_ASSIGN_OR_RETURN(MapInfo map, store.GetMap(input.map));
       type.map_id = map.id;
     }
+    SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancelled));
     SEMMAP_ASSIGN_OR_RETURN(type, store.CreateObjectType(type));
     return OkStatus();
   }));
@@ -127,13 +129,15 @@ StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input) {
   return type;
 }
 
-Status ObjectCatalog::Remove(const std::string& label, const std::string& map) {
+Status ObjectCatalog::Remove(const std::string& label, const std::string& map,
+                             const CancelCheck& cancelled) {
   std::optional<int64_t> map_id;
   SEMMAP_RETURN_IF_ERROR(writer_->RunSync([&](MapStore& store) -> Status {
     if (!map.empty()) {
       SEMMAP_ASSIGN_OR_RETURN(MapInfo info, store.GetMap(map));
       map_id = info.id;
     }
+    SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancelled));
     return store.RemoveObjectType(label, map_id);
   }));
   std::lock_guard lock(mutex_);
@@ -145,6 +149,14 @@ Status ObjectCatalog::Remove(const std::string& label, const std::string& map) {
   }
   cache_.clear();
   return OkStatus();
+}
+
+void ObjectCatalog::ForgetMap(int64_t map_id) {
+  std::lock_guard lock(mutex_);
+  for (auto it = entries_.begin(); it != entries_.end();) {
+    it = it->second.map_id == map_id ? entries_.erase(it) : std::next(it);
+  }
+  cache_.clear();
 }
 
 std::shared_ptr<const ObjectModelSet> ObjectCatalog::ModelsFor(int64_t map_id) const {

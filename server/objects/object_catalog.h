@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "common/cancel_check.h"
 #include "common/map_types.h"
 #include "common/object_types.h"
 #include "common/status.h"
@@ -45,9 +46,15 @@ class ObjectCatalog {
   // Builds a view from every photo (INVALID_ARGUMENT naming the photo that cannot be used: not
   // decodable, too few features), stores the type (ALREADY_EXISTS, NOT_FOUND for an unknown
   // map, INVALID_ARGUMENT for a bad label or no photos) and makes it visible to recognisers.
-  StatusOr<ObjectType> Register(const RegisterObjectInput& input);
+  // `cancelled` is asked right before the type is stored: a call whose client has gone or whose
+  // deadline has passed by then takes no effect.
+  StatusOr<ObjectType> Register(const RegisterObjectInput& input,
+                                const CancelCheck& cancelled = nullptr);
   // NOT_FOUND when the scope has no type of that label.
-  Status Remove(const std::string& label, const std::string& map);
+  Status Remove(const std::string& label, const std::string& map,
+                const CancelCheck& cancelled = nullptr);
+  // Drops the types of a map that was removed from the store (with them, by cascade).
+  void ForgetMap(int64_t map_id);
 
   // Global types and the map's own; never null.
   std::shared_ptr<const ObjectModelSet> ModelsFor(int64_t map_id) const;

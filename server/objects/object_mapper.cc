@@ -6,6 +6,7 @@
 #include <set>
 #include <string>
 
+#include "common/thread_launcher.h"
 #include "common/thread_priority.h"
 #include "common/time_util.h"
 #include "server/recognition/keyframe_recognition.h"
@@ -32,7 +33,8 @@ StatusOr<std::unique_ptr<ObjectMapper>> ObjectMapper::Start(int64_t map_id,
   }
   std::unique_ptr<ObjectMapper> mapper(
       new ObjectMapper(map_id, std::move(options), catalog, writer));
-  mapper->worker_ = std::thread([raw = mapper.get(), restore] { raw->Run(restore); });
+  SEMMAP_ASSIGN_OR_RETURN(mapper->worker_,
+                          LaunchThread([raw = mapper.get(), restore] { raw->Run(restore); }));
   return mapper;
 }
 
@@ -159,6 +161,8 @@ void ObjectMapper::Restore() {
   observations_ = std::move(stored);
   // Poses the back end sent already are newer than the stored ones.
   for (auto& [key, T] : poses) poses_.emplace(key, T);
+  // The stored instances may predate a removal or a correction: fuse them afresh once.
+  dirty_ = !observations_.empty();
   std::lock_guard lock(mutex_);
   stats_.restored_observations = observations_.size();
 }

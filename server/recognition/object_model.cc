@@ -2,10 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <utility>
+
+#include "server/sensor/compressed_image.h"
 
 namespace semmap {
 
@@ -201,18 +202,24 @@ StatusOr<ModelView> BuildModelView(const cv::Mat& photo, const ObjectRecognition
 StatusOr<ModelView> BuildModelViewFromEncoded(std::string_view bytes,
                                               const ObjectRecognitionOptions& options) {
   if (bytes.empty()) return InvalidArgumentError("the object photo is empty (no bytes)");
-  cv::Mat photo;
-  try {
-    const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
-    photo = cv::imdecode(raw, cv::IMREAD_COLOR);
-  } catch (const cv::Exception& e) {
-    return InvalidArgumentError(std::string("the object photo does not decode: ") + e.what());
+  StatusOr<CompressedImageInfo> info = ProbeCompressedImage(bytes);
+  if (!info.ok()) {
+    return InvalidArgumentError("the object photo does not decode: it " + info.status().message());
   }
-  if (photo.empty()) {
-    return InvalidArgumentError("the object photo does not decode as an image (" +
-                                std::to_string(bytes.size()) + " bytes)");
+  // The header is read first: a small file must not make the server allocate a huge image.
+  const uint64_t pixels = static_cast<uint64_t>(info->width) * info->height;  // < 2^62
+  if (pixels > kMaxObjectPhotoPixels) {
+    return InvalidArgumentError("the object photo is " + std::to_string(info->width) + "x" +
+                                std::to_string(info->height) + " pixels; the limit is " +
+                                std::to_string(kMaxObjectPhotoPixels / 1000000) +
+                                " megapixels (a crop of the object is enough)");
   }
-  return BuildModelView(photo, options);
+  StatusOr<cv::Mat> photo = DecodeCompressedImage(bytes, *info, DecodeTarget::kBgr);
+  if (!photo.ok()) {
+    if (photo.status().code() != StatusCode::kInvalidArgument) return photo.status();
+    return InvalidArgumentError("the object photo does not decode: " + photo.status().message());
+  }
+  return BuildModelView(*photo, options);
 }
 
 StatusOr<ObjectModel> BuildObjectModel(int64_t type_id, std::string label,

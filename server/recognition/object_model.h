@@ -102,8 +102,11 @@ struct ObjectModel {
 // min_model_features features; INTERNAL when OpenCV fails.
 StatusOr<ModelView> BuildModelView(const cv::Mat& photo, const ObjectRecognitionOptions& options);
 
-// The same from encoded bytes (PNG, JPEG, anything OpenCV decodes); INVALID_ARGUMENT for bytes
-// that do not decode.
+// Largest object photo accepted from encoded bytes (checked from the header, before decoding).
+inline constexpr uint64_t kMaxObjectPhotoPixels = 24'000'000;
+
+// The same from encoded PNG or JPEG bytes; INVALID_ARGUMENT for bytes that do not fully decode
+// (truncated or corrupt) or a photo over kMaxObjectPhotoPixels.
 StatusOr<ModelView> BuildModelViewFromEncoded(std::string_view bytes,
                                               const ObjectRecognitionOptions& options);
 

@@ -6,10 +6,13 @@
 #include <string>
 #include <vector>
 
+#include "common/checked_math.h"
+#include "server/sensor/compressed_image.h"
+
 namespace semmap {
 namespace {
 
-std::string SizeText(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
+std::string SizeText(uint64_t w, uint64_t h) { return std::to_string(w) + "x" + std::to_string(h); }
 
 Status CheckSize(const cv::Mat& m, int w, int h, const char* what) {
   if (m.cols != w || m.rows != h) {
@@ -19,45 +22,74 @@ Status CheckSize(const cv::Mat& m, int w, int h, const char* what) {
   return OkStatus();
 }
 
-// Wraps raw pixel bytes (no copy) after checking width/height/step/data size agree.
-StatusOr<cv::Mat> WrapRaw(const ImageMessage& image, int cv_type, int bytes_per_pixel,
+// Wraps raw pixel bytes (no copy) after checking that width, height, step and data size agree.
+// Every size is computed in checked arithmetic: the numbers are the client's.
+StatusOr<cv::Mat> WrapRaw(const ImageMessage& image, int cv_type, uint64_t bytes_per_pixel,
                           const char* what) {
-  const uint64_t min_step = static_cast<uint64_t>(image.width) * bytes_per_pixel;
   if (image.width == 0 || image.height == 0) {
     return InvalidArgumentError(std::string(what) + " has zero width or height");
   }
-  const uint64_t step = image.step == 0 ? min_step : image.step;
-  if (step < min_step) {
+  const std::optional<int> rows = CheckedNarrow<int>(image.height);
+  const std::optional<int> cols = CheckedNarrow<int>(image.width);
+  const std::optional<uint64_t> min_step = CheckedMul(image.width, bytes_per_pixel);
+  if (!rows || !cols || !min_step) {
+    return InvalidArgumentError(std::string(what) + " size " + SizeText(image.width, image.height) +
+                                " is too large");
+  }
+  const uint64_t step = image.step == 0 ? *min_step : image.step;
+  if (step < *min_step) {
     return InvalidArgumentError(std::string(what) + " step " + std::to_string(step) +
-                                " is less than width*bytes_per_pixel " + std::to_string(min_step));
+                                " is less than width*bytes_per_pixel " + std::to_string(*min_step));
   }
-  const uint64_t expected = step * image.height;
-  if (image.data.size() != expected) {
-    return InvalidArgumentError(std::string(what) + " has " + std::to_string(image.data.size()) +
-                                " bytes; " + image.encoding + " " +
-                                SizeText(image.width, image.height) + " with step " +
-                                std::to_string(step) + " needs " + std::to_string(expected));
+  const std::optional<uint64_t> expected = CheckedMul(step, image.height);
+  if (!expected || image.data.size() != *expected) {
+    return InvalidArgumentError(
+        std::string(what) + " has " + std::to_string(image.data.size()) + " bytes; " +
+        image.encoding + " " + SizeText(image.width, image.height) + " with step " +
+        std::to_string(step) + " needs " +
+        (expected ? std::to_string(*expected) : std::string("more than 2^64")));
   }
-  return cv::Mat(static_cast<int>(image.height), static_cast<int>(image.width), cv_type,
-                 const_cast<char*>(image.data.data()), static_cast<size_t>(step));
+  return cv::Mat(*rows, *cols, cv_type, const_cast<char*>(image.data.data()),
+                 static_cast<size_t>(step));
 }
 
-StatusOr<cv::Mat> DecodeCompressed(const ImageMessage& image, int flags, const char* what) {
+// A raw image must have the session camera's size; checked before anything else is looked at.
+Status CheckRawSize(const ImageMessage& image, int w, int h, const char* what) {
+  if (image.width != static_cast<uint64_t>(w) || image.height != static_cast<uint64_t>(h)) {
+    return InvalidArgumentError(std::string(what) + " is " + SizeText(image.width, image.height) +
+                                " but the session camera is " + SizeText(w, h));
+  }
+  return OkStatus();
+}
+
+// Reads the header, checks the declared format and the size against the camera's, and only
+// then decodes (a small file cannot make the server allocate a huge image).
+StatusOr<cv::Mat> DecodeCompressed(const ImageMessage& image, DecodeTarget target, int w, int h,
+                                   const char* what) {
   if (image.encoding != "png" && image.encoding != "jpeg" && image.encoding != "jpg") {
     return InvalidArgumentError(std::string(what) + " has unknown compressed format '" +
                                 image.encoding + "' (expected png or jpeg)");
   }
   if (image.data.empty()) return InvalidArgumentError(std::string(what) + " has no data");
-  cv::Mat decoded;
-  try {
-    const cv::Mat buf(1, static_cast<int>(image.data.size()), CV_8UC1,
-                      const_cast<char*>(image.data.data()));
-    decoded = cv::imdecode(buf, flags);
-  } catch (const cv::Exception& e) {
-    return InvalidArgumentError(std::string(what) + " could not be decoded: " + e.what());
+  StatusOr<CompressedImageInfo> info = ProbeCompressedImage(image.data);
+  if (!info.ok()) {
+    return Status(info.status().code(),
+                  std::string(what) + " could not be decoded: it " + info.status().message());
   }
-  if (decoded.empty()) {
-    return InvalidArgumentError(std::string(what) + " could not be decoded as " + image.encoding);
+  const bool declared_png = image.encoding == "png";
+  if (declared_png != (info->format == CompressedFormat::kPng)) {
+    return InvalidArgumentError(std::string(what) + " is declared " + image.encoding +
+                                " but its bytes are a " +
+                                std::string(CompressedFormatName(info->format)));
+  }
+  if (info->width != static_cast<uint32_t>(w) || info->height != static_cast<uint32_t>(h)) {
+    return InvalidArgumentError(std::string(what) + " is " + SizeText(info->width, info->height) +
+                                " but the session camera is " + SizeText(w, h));
+  }
+  StatusOr<cv::Mat> decoded = DecodeCompressedImage(image.data, *info, target);
+  if (!decoded.ok()) {
+    return Status(decoded.status().code(),
+                  std::string(what) + " could not be decoded: " + decoded.status().message());
   }
   return decoded;
 }
@@ -67,17 +99,10 @@ StatusOr<cv::Mat> DecodeCompressed(const ImageMessage& image, int flags, const c
 StatusOr<cv::Mat> DecodeColour(const ImageMessage& image, int w, int h) {
   cv::Mat out;
   if (image.kind == ImageMessage::Kind::kCompressed) {
-    SEMMAP_ASSIGN_OR_RETURN(out, DecodeCompressed(image, cv::IMREAD_UNCHANGED, "colour image"));
-    if (out.depth() != CV_8U) {
-      return InvalidArgumentError("colour image must have 8-bit channels");
-    }
-    if (out.channels() == 4) {
-      cv::cvtColor(out, out, cv::COLOR_BGRA2BGR);
-    } else if (out.channels() != 1 && out.channels() != 3) {
-      return InvalidArgumentError("colour image has " + std::to_string(out.channels()) +
-                                  " channels");
-    }
+    SEMMAP_ASSIGN_OR_RETURN(out,
+                            DecodeCompressed(image, DecodeTarget::kColour, w, h, "colour image"));
   } else if (image.encoding == "bgr8" || image.encoding == "rgb8") {
+    SEMMAP_RETURN_IF_ERROR(CheckRawSize(image, w, h, "colour image"));
     SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, CV_8UC3, 3, "colour image"));
     if (image.encoding == "rgb8") {
       cv::cvtColor(wrapped, out, cv::COLOR_RGB2BGR);
@@ -85,6 +110,7 @@ StatusOr<cv::Mat> DecodeColour(const ImageMessage& image, int w, int h) {
       out = wrapped.clone();
     }
   } else if (image.encoding == "mono8") {
+    SEMMAP_RETURN_IF_ERROR(CheckRawSize(image, w, h, "colour image"));
     SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, CV_8UC1, 1, "colour image"));
     out = wrapped.clone();
   } else {
@@ -108,16 +134,16 @@ StatusOr<DecodedDepth> DecodeDepth(const DepthMessage& depth, int w, int h) {
       return InvalidArgumentError("compressed depth must be 16-bit png (got '" + image.encoding +
                                   "')");
     }
-    SEMMAP_ASSIGN_OR_RETURN(out.raw, DecodeCompressed(image, cv::IMREAD_ANYDEPTH, "depth image"));
-    if (out.raw.type() != CV_16UC1) {
-      return InvalidArgumentError("depth png must be single-channel 16-bit");
-    }
+    SEMMAP_ASSIGN_OR_RETURN(out.raw,
+                            DecodeCompressed(image, DecodeTarget::kDepth16, w, h, "depth image"));
     out.depth_scale = depth.depth_scale;
   } else if (image.encoding == "16UC1") {
+    SEMMAP_RETURN_IF_ERROR(CheckRawSize(image, w, h, "depth image"));
     SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, CV_16UC1, 2, "depth image"));
     out.raw = wrapped.clone();
     out.depth_scale = depth.depth_scale;
   } else if (metres) {
+    SEMMAP_RETURN_IF_ERROR(CheckRawSize(image, w, h, "depth image"));
     SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, CV_32FC1, 4, "depth image"));
     constexpr double kScale = 5000.0;  // 0.2 mm steps, up to 13 m
     cv::Mat cleaned = wrapped.clone();

@@ -1,5 +1,7 @@
 #include "server/service/ingest_reactor.h"
 
+#include <chrono>
+
 #include "server/service/ingest_conversions.h"
 
 namespace semmap {
@@ -76,9 +78,20 @@ void IngestReactor::DecideReadLocked(Actions* actions) {
 void IngestReactor::DecideWriteOrFinishLocked(Actions* actions) {
   if (writing_ || finish_called_) return;
   if (!outgoing_.empty() && !client_gone_) {
-    writing_ = std::move(outgoing_.front());
+    const v1::IngestResponse& next = outgoing_.front();
+    if (next.has_progress()) progress_queued_ = false;
+    grpc::ByteBuffer buffer;
+    bool own_buffer = false;
+    const grpc::Status serialized =
+        grpc::SerializationTraits<v1::IngestResponse>::Serialize(next, &buffer, &own_buffer);
     outgoing_.pop_front();
-    if (writing_->has_progress()) progress_queued_ = false;
+    if (!serialized.ok()) {
+      // Only a response over 2 GiB fails to serialise; ours are small.
+      finish_called_ = true;
+      actions->finish = grpc::Status(grpc::StatusCode::INTERNAL, "a response failed to serialise");
+      return;
+    }
+    writing_ = std::move(buffer);
     actions->write = &*writing_;
     return;
   }
@@ -108,7 +121,8 @@ void IngestReactor::OnReadDone(bool ok) {
       PushToSessionLocked(
           IngestInvalid{InvalidArgumentError("a message arrived after the end message")});
     } else {
-      IngestMessage message = FromProto(std::move(request_));
+      ++messages_read_;
+      IngestMessage message = ParseIngestRequest(&request_, messages_read_);
       request_.Clear();
       if (std::holds_alternative<IngestEnd>(message)) {
         end_held_ = true;  // confirmed by the half-close that must follow
@@ -145,7 +159,7 @@ void IngestReactor::OnCancel() {
     outgoing_.clear();
   }
   // The session still stores what it has queued, then reports Finished.
-  if (session_) session_->Cancel();
+  if (session_) session_->Cancel(context_->deadline() <= std::chrono::system_clock::now());
 }
 
 void IngestReactor::OnDone() {

@@ -2,6 +2,10 @@
 // bounded queue, asking gRPC for the next message only while that queue has room, so a slow
 // pipeline pushes back on the client through HTTP/2 flow control instead of buffering.
 // Reactions never block; the session answers through a Sink that outlives the reactor safely.
+//
+// The method is registered raw (byte buffers): gRPC reports a request that does not parse the
+// same way as the client's half-close, which would end the session OK and silently drop
+// everything after it. Parsing here makes such a message an INVALID_ARGUMENT end instead.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -16,7 +20,7 @@
 
 namespace semmap {
 
-class IngestReactor final : public grpc::ServerBidiReactor<v1::IngestRequest, v1::IngestResponse> {
+class IngestReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
  public:
   IngestReactor(grpc::CallbackServerContext* context, IngestManager* manager);
 
@@ -31,7 +35,7 @@ class IngestReactor final : public grpc::ServerBidiReactor<v1::IngestRequest, v1
   // What to do once the mutex is released (gRPC calls are never made while holding it).
   struct Actions {
     bool read = false;
-    const v1::IngestResponse* write = nullptr;
+    const grpc::ByteBuffer* write = nullptr;
     std::optional<grpc::Status> finish;
   };
 
@@ -55,12 +59,13 @@ class IngestReactor final : public grpc::ServerBidiReactor<v1::IngestRequest, v1
   std::shared_ptr<IngestSession> session_;
 
   std::mutex mutex_;
-  v1::IngestRequest request_;
+  grpc::ByteBuffer request_;
+  uint64_t messages_read_ = 0;
   bool read_in_flight_ = false;
   bool reads_closed_ = false;  // half-close seen, protocol finished, or stream finishing
   bool end_held_ = false;      // end read; waiting for the half-close that must follow
   std::deque<v1::IngestResponse> outgoing_;
-  std::optional<v1::IngestResponse> writing_;
+  std::optional<grpc::ByteBuffer> writing_;
   bool progress_queued_ = false;  // a not-yet-sent progress is coalesced with newer ones
   std::optional<grpc::Status> finish_status_;
   bool finish_called_ = false;

@@ -1,11 +1,13 @@
 #include "server/service/map_service.h"
 
 #include <algorithm>
+#include <chrono>
 
 #include "rpc/conversions.h"
 #include "rpc/object_conversions.h"
 #include "server/service/ingest_reactor.h"
 #include "server/service/message_stream_reactor.h"
+#include "server/service/request_conversions.h"
 
 namespace semmap {
 namespace {
@@ -19,9 +21,25 @@ grpc::ServerUnaryReactor* FinishUnary(grpc::CallbackServerContext* context, cons
   return reactor;
 }
 
+// Asked right before a mutation commits: a call the client has given up on takes no effect.
+// (One that commits in its last microseconds may still be reported DEADLINE_EXCEEDED by gRPC;
+// repeating it then answers ALREADY_EXISTS or NOT_FOUND.)
+CancelCheck ClientStillWaiting(grpc::CallbackServerContext* context) {
+  return [context]() -> Status {
+    if (context->IsCancelled()) {
+      return CancelledError("the call was cancelled before it took effect; nothing was changed");
+    }
+    if (context->deadline() <= std::chrono::system_clock::now()) {
+      return DeadlineExceededError(
+          "the call's deadline passed before it took effect; nothing was changed");
+    }
+    return OkStatus();
+  };
+}
+
 }  // namespace
 
-grpc::ServerBidiReactor<v1::IngestRequest, v1::IngestResponse>* MapServiceImpl::Ingest(
+grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* MapServiceImpl::Ingest(
     grpc::CallbackServerContext* context) {
   return new IngestReactor(context, ingest_);
 }
@@ -63,14 +81,7 @@ grpc::ServerWriteReactor<v1::GetTrajectoryResponse>* MapServiceImpl::GetTrajecto
 grpc::ServerWriteReactor<v1::ExportMapResponse>* MapServiceImpl::ExportMap(
     grpc::CallbackServerContext*, const v1::ExportMapRequest* request) {
   using Reactor = MessageStreamReactor<v1::ExportMapResponse>;
-  ExportRequest export_request;
-  export_request.map = request->map();
-  export_request.format = request->format();
-  export_request.session = request->session();
-  export_request.ascii = request->ascii();
-  export_request.voxel_m = request->voxel();
-  export_request.view = request->view();
-  export_request.width_px = static_cast<int>(std::min<uint32_t>(request->width(), 1u << 20));
+  const ExportRequest export_request = FromProto(*request);
   StatusOr<ExportResult> result = query_->ExportMap(export_request);
   if (!result.ok()) return new Reactor(ToGrpcStatus(result.status()));
   std::vector<v1::ExportMapResponse> messages;
@@ -78,6 +89,9 @@ grpc::ServerWriteReactor<v1::ExportMapResponse>* MapServiceImpl::ExportMap(
   header->set_format(result->format);
   header->set_media_type(result->media_type);
   header->set_total_bytes(result->bytes.size());
+  header->mutable_layer_origin()->set_x(result->layer_origin.x());
+  header->mutable_layer_origin()->set_y(result->layer_origin.y());
+  header->mutable_layer_origin()->set_z(result->layer_origin.z());
   for (size_t offset = 0; offset < result->bytes.size(); offset += kExportChunkBytes) {
     messages.emplace_back().set_chunk(result->bytes.substr(offset, kExportChunkBytes));
   }
@@ -90,20 +104,9 @@ grpc::ServerWriteReactor<v1::ExportMapResponse>* MapServiceImpl::ExportMap(
 grpc::ServerUnaryReactor* MapServiceImpl::RegisterObject(grpc::CallbackServerContext* context,
                                                          const v1::RegisterObjectRequest* request,
                                                          v1::RegisterObjectResponse* response) {
-  RegisterObjectInput input;
-  input.label = request->label();
-  input.map = request->map();
-  for (const v1::CompressedImage& photo : request->photos()) {
-    input.photos.push_back({photo.format(), photo.data()});
-  }
-  if (request->has_colour()) {
-    const v1::Colour& c = request->colour();
-    if (c.r() > 255 || c.g() > 255 || c.b() > 255) {
-      return FinishUnary(context, InvalidArgumentError("colour channels must be 0..255"));
-    }
-    input.rgb = FromProto(c);
-  }
-  StatusOr<ObjectType> type = objects_->Register(input);
+  StatusOr<RegisterObjectInput> input = FromProto(*request);
+  if (!input.ok()) return FinishUnary(context, input.status());
+  StatusOr<ObjectType> type = objects_->Register(*input, ClientStillWaiting(context));
   if (type.ok()) ToProto(*type, response->mutable_object());
   return FinishUnary(context, type.status());
 }
@@ -121,7 +124,8 @@ grpc::ServerUnaryReactor* MapServiceImpl::ListObjects(grpc::CallbackServerContex
 grpc::ServerUnaryReactor* MapServiceImpl::RemoveObject(grpc::CallbackServerContext* context,
                                                        const v1::RemoveObjectRequest* request,
                                                        v1::RemoveObjectResponse*) {
-  return FinishUnary(context, objects_->Remove(request->label(), request->map()));
+  return FinishUnary(
+      context, objects_->Remove(request->label(), request->map(), ClientStillWaiting(context)));
 }
 
 grpc::ServerUnaryReactor* MapServiceImpl::FindObjects(grpc::CallbackServerContext* context,
@@ -138,12 +142,44 @@ grpc::ServerUnaryReactor* MapServiceImpl::FindObjects(grpc::CallbackServerContex
 grpc::ServerUnaryReactor* MapServiceImpl::ObjectsNear(grpc::CallbackServerContext* context,
                                                       const v1::ObjectsNearRequest* request,
                                                       v1::ObjectsNearResponse* response) {
-  StatusOr<std::vector<ObjectInstance>> found = query_->ObjectsNear(
-      request->map(), FromProto(request->point()), request->radius(), request->label());
+  const NearQuery near = FromProto(*request);
+  StatusOr<std::vector<ObjectInstance>> found =
+      query_->ObjectsNear(near.map, near.point, near.radius_m, near.label);
   if (found.ok()) {
     for (const ObjectInstance& o : *found) ToProto(o, response->add_objects());
   }
   return FinishUnary(context, found.status());
+}
+
+grpc::ServerUnaryReactor* MapServiceImpl::RemoveSession(grpc::CallbackServerContext* context,
+                                                        const v1::RemoveSessionRequest* request,
+                                                        v1::RemoveSessionResponse* response) {
+  if (request->map().empty() || request->session().empty()) {
+    return FinishUnary(context, InvalidArgumentError("RemoveSession needs a map and a session"));
+  }
+  StatusOr<RemovedCounts> removed =
+      ingest_->RemoveSession(request->map(), request->session(), ClientStillWaiting(context));
+  if (removed.ok()) {
+    response->set_frames(static_cast<uint64_t>(removed->frames));
+    response->set_keyframes(static_cast<uint64_t>(removed->keyframes));
+  }
+  return FinishUnary(context, removed.status());
+}
+
+grpc::ServerUnaryReactor* MapServiceImpl::RemoveMap(grpc::CallbackServerContext* context,
+                                                    const v1::RemoveMapRequest* request,
+                                                    v1::RemoveMapResponse* response) {
+  if (request->map().empty()) {
+    return FinishUnary(context, InvalidArgumentError("RemoveMap needs a map"));
+  }
+  StatusOr<RemovedCounts> removed = ingest_->RemoveMap(request->map(), ClientStillWaiting(context));
+  if (removed.ok()) {
+    objects_->ForgetMap(removed->map_id);
+    response->set_sessions(static_cast<uint64_t>(removed->sessions));
+    response->set_frames(static_cast<uint64_t>(removed->frames));
+    response->set_keyframes(static_cast<uint64_t>(removed->keyframes));
+  }
+  return FinishUnary(context, removed.status());
 }
 
 }  // namespace semmap

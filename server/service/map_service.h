@@ -9,12 +9,27 @@
 
 namespace semmap {
 
-class MapServiceImpl final : public v1::MapService::CallbackService {
+// Every method on the callback API; Ingest raw (byte buffers) so that a message that does not
+// parse is an error the stream reports, not a silent half-close (see IngestReactor).
+using MapServiceBase = v1::MapService::WithRawCallbackMethod_Ingest<
+    v1::MapService::WithCallbackMethod_ListMaps<v1::MapService::WithCallbackMethod_ListSessions<
+        v1::MapService::WithCallbackMethod_GetTrajectory<
+            v1::MapService::WithCallbackMethod_ExportMap<
+                v1::MapService::WithCallbackMethod_RegisterObject<
+                    v1::MapService::WithCallbackMethod_ListObjects<
+                        v1::MapService::WithCallbackMethod_RemoveObject<
+                            v1::MapService::WithCallbackMethod_FindObjects<
+                                v1::MapService::WithCallbackMethod_ObjectsNear<
+                                    v1::MapService::WithCallbackMethod_RemoveSession<
+                                        v1::MapService::WithCallbackMethod_RemoveMap<
+                                            v1::MapService::Service>>>>>>>>>>>>;
+
+class MapServiceImpl final : public MapServiceBase {
  public:
   MapServiceImpl(IngestManager* ingest, MapQueryInterface* query, ObjectCatalog* objects)
       : ingest_(ingest), query_(query), objects_(objects) {}
 
-  grpc::ServerBidiReactor<v1::IngestRequest, v1::IngestResponse>* Ingest(
+  grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* Ingest(
       grpc::CallbackServerContext* context) override;
   grpc::ServerUnaryReactor* ListMaps(grpc::CallbackServerContext* context,
                                      const v1::ListMapsRequest* request,
@@ -41,6 +56,12 @@ class MapServiceImpl final : public v1::MapService::CallbackService {
   grpc::ServerUnaryReactor* ObjectsNear(grpc::CallbackServerContext* context,
                                         const v1::ObjectsNearRequest* request,
                                         v1::ObjectsNearResponse* response) override;
+  grpc::ServerUnaryReactor* RemoveSession(grpc::CallbackServerContext* context,
+                                          const v1::RemoveSessionRequest* request,
+                                          v1::RemoveSessionResponse* response) override;
+  grpc::ServerUnaryReactor* RemoveMap(grpc::CallbackServerContext* context,
+                                      const v1::RemoveMapRequest* request,
+                                      v1::RemoveMapResponse* response) override;
 
  private:
   IngestManager* ingest_;

@@ -169,8 +169,17 @@ Status BowVocabulary::Finalize() {
     return DataLossError(std::to_string(weights_.size()) + " weights for " +
                          std::to_string(word_node_.size()) + " words");
   }
+  // idf = log(N / n_w) with 1 <= n_w <= N lies in [0, log N]. A larger weight, or a subnormal
+  // one (normalising a BowVector could round it to 0, breaking "positive weights summing to
+  // 1"; a huge one makes the sum infinite), did not come from training.
+  const double max_weight =
+      std::log(static_cast<double>(std::max(training_images_, 1))) * (1 + 1e-9);
   for (double w : weights_) {
     if (!std::isfinite(w) || w < 0) return DataLossError("a word weight is negative or not finite");
+    if (w > max_weight || std::fpclassify(w) == FP_SUBNORMAL) {
+      return DataLossError("word weight " + std::to_string(w) + " is not an idf of " +
+                           std::to_string(training_images_) + " training images");
+    }
   }
   return OkStatus();
 }

@@ -8,8 +8,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <system_error>
 
+#include "common/checked_math.h"
 #include "common/sha256.h"
 #include "server/slam/bow_vocabulary.h"
 
@@ -109,12 +111,18 @@ StatusOr<BowVocabulary> BowVocabulary::Deserialize(std::string_view bytes) {
   if (weighting != kWeightingTfIdf) {
     return InvalidArgumentError("unsupported vocabulary weighting " + std::to_string(weighting));
   }
-  // 64-bit arithmetic: the counts are 32-bit, so this cannot overflow.
-  const uint64_t expected = uint64_t{kHeaderBytes} + uint64_t{nodes} * 8 +
-                            uint64_t{nodes} * descriptor_bytes + uint64_t{words} * 8;
-  if (expected != body.size()) {
+  // Checked: with 32-bit counts, nodes * (8 + descriptor bytes) + words * 8 can pass 2^64 and
+  // wrap to a small size that a short file matches.
+  const std::optional<uint64_t> tree_bytes = CheckedProduct({nodes, 8});
+  const std::optional<uint64_t> centre_bytes = CheckedProduct({nodes, descriptor_bytes});
+  const std::optional<uint64_t> weight_bytes = CheckedProduct({words, 8});
+  std::optional<uint64_t> expected = kHeaderBytes;
+  for (const std::optional<uint64_t>& part : {tree_bytes, centre_bytes, weight_bytes}) {
+    expected = expected && part ? CheckedAdd(*expected, *part) : std::nullopt;
+  }
+  if (!expected || *expected != body.size()) {
     return DataLossError("vocabulary size " + std::to_string(body.size()) + " does not match its " +
-                         "header (" + std::to_string(expected) + ")");
+                         "header (" + (expected ? std::to_string(*expected) : "overflow") + ")");
   }
   if (branching > 255 || levels > 16 || descriptor_bytes > 4096 || images > (1u << 31)) {
     return DataLossError("implausible vocabulary header");
@@ -129,7 +137,7 @@ StatusOr<BowVocabulary> BowVocabulary::Deserialize(std::string_view bytes) {
     n.first_child = in.U32();
     n.num_children = in.U32();
   }
-  v.centres_.resize(size_t{nodes} * descriptor_bytes);
+  v.centres_.resize(*centre_bytes);  // part of the body, which is in memory
   in.Bytes(v.centres_.data(), v.centres_.size());
   v.weights_.resize(words);
   for (double& w : v.weights_) w = in.F64();

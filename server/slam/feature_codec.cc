@@ -3,12 +3,19 @@
 #include <bit>
 #include <cstdint>
 #include <cstring>
+#include <optional>
 #include <type_traits>
+
+#include "common/checked_math.h"
 
 namespace semmap {
 namespace {
 
 constexpr char kMagic[4] = {'S', 'M', 'F', '1'};
+// magic, u32 count, i32 descriptor columns, i32 descriptor type.
+constexpr uint64_t kHeaderBytes = 16;
+// Per keypoint: x y size angle response (f32), octave (i32), depth flag (u8), 3D point (3 f32).
+constexpr uint64_t kKeypointBytes = 5 * sizeof(float) + sizeof(int32_t) + 1 + 3 * sizeof(float);
 
 class Writer {
  public:
@@ -89,6 +96,23 @@ StatusOr<FrameFeatures> DecodeFeatures(std::string_view format, std::string_view
   if ((type != CV_8U && type != CV_32F) || cols < 0 || cols > 4096 || count > 1'000'000) {
     return DataLossError("keyframe features: implausible header");
   }
+  // The whole size the header announces, checked before anything is allocated: a 16-byte
+  // header must not make the decoder reserve room for a million keypoints.
+  const std::optional<uint64_t> keypoints = CheckedMul(count, kKeypointBytes);
+  const std::optional<uint64_t> keypoints_end =
+      keypoints ? CheckedAdd(kHeaderBytes, *keypoints) : std::nullopt;
+  const std::optional<uint64_t> descriptors = CheckedProduct(
+      {count, count > 0 ? static_cast<uint64_t>(cols) : 0, type == CV_32F ? sizeof(float) : 1});
+  const std::optional<uint64_t> total =
+      keypoints_end && descriptors ? CheckedAdd(*keypoints_end, *descriptors) : std::nullopt;
+  if (!keypoints_end || *keypoints_end > bytes.size()) {
+    return DataLossError("keyframe features: truncated at keypoint " +
+                         std::to_string((bytes.size() - kHeaderBytes) / kKeypointBytes));
+  }
+  if (!total || *total > bytes.size()) {
+    return DataLossError("keyframe features: truncated descriptors");
+  }
+  if (*total < bytes.size()) return DataLossError("keyframe features: trailing bytes");
   FrameFeatures f;
   f.keypoints.resize(count);
   f.has_depth.resize(count);

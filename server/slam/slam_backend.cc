@@ -6,6 +6,7 @@
 #include <string>
 #include <utility>
 
+#include "common/thread_launcher.h"
 #include "common/time_util.h"
 #include "server/slam/feature_codec.h"
 
@@ -84,7 +85,7 @@ StatusOr<std::unique_ptr<SlamBackend>> SlamBackend::Start(
       new SlamBackend(map_id, std::move(options), std::move(vocabulary), writer));
   if (snapshot) SEMMAP_RETURN_IF_ERROR(backend->Restore(*snapshot).WithContext("map snapshot"));
   backend->pose_listener_ = std::move(pose_listener);
-  backend->worker_ = std::thread([raw = backend.get()] { raw->Run(); });
+  SEMMAP_ASSIGN_OR_RETURN(backend->worker_, LaunchThread([raw = backend.get()] { raw->Run(); }));
   return backend;
 }
 

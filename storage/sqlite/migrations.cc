@@ -183,10 +183,18 @@ CREATE TRIGGER object_instances_rtree_delete AFTER DELETE ON object_instances BE
 END;
 )sql";
 
+// Version 4: how each session ended (SessionEndReason 1..6; NULL while open and for sessions
+// that ended before reasons were recorded) and the final status message.
+constexpr char kSchemaV4[] = R"sql(
+ALTER TABLE sessions ADD COLUMN end_reason INTEGER CHECK (end_reason BETWEEN 1 AND 6);
+ALTER TABLE sessions ADD COLUMN end_message TEXT;
+)sql";
+
 constexpr Migration kMigrations[] = {
     {1, "initial schema", kSchemaV1},
     {2, "keyframe features", kSchemaV2},
     {3, "objects", kSchemaV3},
+    {4, "session end reasons", kSchemaV4},
 };
 
 }  // namespace

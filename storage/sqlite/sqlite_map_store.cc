@@ -92,7 +92,8 @@ StatusOr<std::vector<SessionInfo>> SqliteMapStore::QuerySessions(
       " s.fx, s.fy, s.cx, s.cy, s.k1, s.k2, s.p1, s.p2, s.k3, s.depth_scale,"
       " s.started_ns, s.ended_ns,"
       " (SELECT COUNT(*) FROM frames f WHERE f.session_id = s.id),"
-      " (SELECT COUNT(*) FROM keyframes k WHERE k.session_id = s.id)"
+      " (SELECT COUNT(*) FROM keyframes k WHERE k.session_id = s.id),"
+      " s.end_reason, s.end_message"
       " FROM sessions s JOIN maps m ON m.id = s.map_id " +
       where + " ORDER BY m.name, s.id";
   SEMMAP_ASSIGN_OR_RETURN(StatementLease stmt, db_->Prepare(sql));
@@ -121,6 +122,10 @@ StatusOr<std::vector<SessionInfo>> SqliteMapStore::QuerySessions(
     s.ended_unix_ns = stmt->ColumnIsNull(18) ? 0 : stmt->ColumnInt64(18);
     s.frame_count = stmt->ColumnInt64(19);
     s.keyframe_count = stmt->ColumnInt64(20);
+    // CHECK keeps the reason in 1..6.
+    if (!stmt->ColumnIsNull(21))
+      s.end_reason = static_cast<SessionEndReason>(stmt->ColumnInt64(21));
+    if (!stmt->ColumnIsNull(22)) s.end_message = stmt->ColumnText(22);
   }
   return sessions;
 }
@@ -201,16 +206,96 @@ StatusOr<SessionInfo> SqliteMapStore::CreateSession(const SessionInfo& session) 
   return created;
 }
 
-Status SqliteMapStore::EndSession(int64_t session_id, int64_t ended_unix_ns) {
+Status SqliteMapStore::EndSession(int64_t session_id, int64_t ended_unix_ns,
+                                  SessionEndReason reason, const std::string& message) {
   if (ended_unix_ns <= 0) return InvalidArgumentError("session end time must be positive");
-  SEMMAP_ASSIGN_OR_RETURN(StatementLease stmt,
-                          db_->Prepare("UPDATE sessions SET ended_ns = ?2 WHERE id = ?1"));
-  SEMMAP_RETURN_IF_ERROR(stmt->BindAll(session_id, ended_unix_ns));
+  if (reason == SessionEndReason::kUnspecified || reason == SessionEndReason::kCrashed) {
+    return InvalidArgumentError(
+        "a session ends completed, cancelled, with an error, at a server "
+        "stop or by the idle timeout");
+  }
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare("UPDATE sessions SET ended_ns = ?2, end_reason = ?3, end_message = ?4"
+                   " WHERE id = ?1"));
+  SEMMAP_RETURN_IF_ERROR(
+      stmt->BindAll(session_id, ended_unix_ns, static_cast<int>(reason), message));
   SEMMAP_RETURN_IF_ERROR(stmt->Run());
   if (db_->changes() == 0) {
     return NotFoundError("session id " + std::to_string(session_id) + " not found");
   }
   return OkStatus();
+}
+
+StatusOr<int64_t> SqliteMapStore::MarkOpenSessionsCrashed() {
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare("UPDATE sessions SET end_reason = ?1 WHERE ended_ns IS NULL AND"
+                   " end_reason IS NULL"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, static_cast<int>(SessionEndReason::kCrashed)));
+  SEMMAP_RETURN_IF_ERROR(stmt->Run());
+  return static_cast<int64_t>(db_->changes());
+}
+
+Status SqliteMapStore::RunWithId(const char* sql, int64_t id) {
+  SEMMAP_ASSIGN_OR_RETURN(StatementLease stmt, db_->Prepare(sql));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, id));
+  return stmt->Run();
+}
+
+StatusOr<RemovedCounts> SqliteMapStore::CountRows(const std::string& where, int64_t id) {
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare("SELECT COUNT(*),"
+                   " (SELECT COUNT(*) FROM frames f JOIN sessions s ON s.id = f.session_id " +
+                   where +
+                   "),"
+                   " (SELECT COUNT(*) FROM keyframes k JOIN sessions s ON s.id = k.session_id " +
+                   where + ") FROM sessions s " + where));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, id));
+  SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+  RemovedCounts counts;
+  if (row) {
+    counts.sessions = stmt->ColumnInt64(0);
+    counts.frames = stmt->ColumnInt64(1);
+    counts.keyframes = stmt->ColumnInt64(2);
+  }
+  return counts;
+}
+
+StatusOr<RemovedCounts> SqliteMapStore::RemoveSession(int64_t session_id) {
+  SEMMAP_ASSIGN_OR_RETURN(sqlite::Transaction transaction, sqlite::Transaction::Begin(*db_));
+  SEMMAP_ASSIGN_OR_RETURN(RemovedCounts counts, CountRows("WHERE s.id = ?1", session_id));
+  if (counts.sessions == 0) {
+    return NotFoundError("session id " + std::to_string(session_id) + " not found");
+  }
+  int64_t map_id = 0;
+  {
+    SEMMAP_ASSIGN_OR_RETURN(StatementLease stmt,
+                            db_->Prepare("SELECT map_id FROM sessions WHERE id = ?1"));
+    SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, session_id));
+    SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+    if (row) map_id = stmt->ColumnInt64(0);
+  }
+  counts.map_id = map_id;
+  // Frames, keyframes (with their features, links and observations) follow by cascade; the
+  // derived products of the map no longer match what is left.
+  SEMMAP_RETURN_IF_ERROR(RunWithId("DELETE FROM sessions WHERE id = ?1", session_id));
+  SEMMAP_RETURN_IF_ERROR(RunWithId("DELETE FROM object_instances WHERE map_id = ?1", map_id));
+  SEMMAP_RETURN_IF_ERROR(RunWithId("DELETE FROM blobs WHERE map_id = ?1", map_id));
+  SEMMAP_RETURN_IF_ERROR(transaction.Commit());
+  return counts;
+}
+
+StatusOr<RemovedCounts> SqliteMapStore::RemoveMap(int64_t map_id) {
+  SEMMAP_ASSIGN_OR_RETURN(sqlite::Transaction transaction, sqlite::Transaction::Begin(*db_));
+  SEMMAP_RETURN_IF_ERROR(MapName(map_id).status());
+  SEMMAP_ASSIGN_OR_RETURN(RemovedCounts counts, CountRows("WHERE s.map_id = ?1", map_id));
+  counts.map_id = map_id;
+  // Sessions, links, blobs, the map's own object types, observations and instances cascade.
+  SEMMAP_RETURN_IF_ERROR(RunWithId("DELETE FROM maps WHERE id = ?1", map_id));
+  SEMMAP_RETURN_IF_ERROR(transaction.Commit());
+  return counts;
 }
 
 Status SqliteMapStore::RequireSession(int64_t session_id) {

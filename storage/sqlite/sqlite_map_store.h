@@ -37,7 +37,12 @@ class SqliteMapStore final : public MapStore {
   StatusOr<SessionInfo> GetSession(const std::string& map_name,
                                    const std::string& session_name) override;
   StatusOr<SessionInfo> CreateSession(const SessionInfo& session) override;
-  Status EndSession(int64_t session_id, int64_t ended_unix_ns) override;
+  Status EndSession(int64_t session_id, int64_t ended_unix_ns, SessionEndReason reason,
+                    const std::string& message) override;
+  StatusOr<int64_t> MarkOpenSessionsCrashed() override;
+  // One transaction each.
+  StatusOr<RemovedCounts> RemoveSession(int64_t session_id) override;
+  StatusOr<RemovedCounts> RemoveMap(int64_t map_id) override;
 
   // One transaction. Frames are upserted by (session_id, seq); links may name keyframes by id
   // or, with id 0, by (session_id, seq), including keyframes of the same batch.
@@ -90,6 +95,9 @@ class SqliteMapStore final : public MapStore {
   // --- checks shared by the methods (NOT_FOUND when the row is absent) ---
   StatusOr<std::string> MapName(int64_t map_id);
   Status RequireSession(int64_t session_id);
+  Status RunWithId(const char* sql, int64_t id);  // a statement binding ?1 = id
+  // Sessions, frames and keyframes of the sessions `where` (on sessions s, binding ?1 = id).
+  StatusOr<RemovedCounts> CountRows(const std::string& where, int64_t id);
   StatusOr<std::vector<SessionInfo>> QuerySessions(const std::string& where,
                                                    const std::vector<std::string>& args);
   StatusOr<std::vector<MapInfo>> QueryMaps(const std::string& where, const std::string* name);

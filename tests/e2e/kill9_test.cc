@@ -70,6 +70,11 @@ TEST(Kill9Test, AcknowledgedDurableFramesSurvive) {
   auto sessions = client.ListSessions("crash");
   ASSERT_TRUE(sessions.ok()) << sessions.status().ToString();
   EXPECT_EQ(sessions->size(), static_cast<size_t>(kRounds));
+  // Each was killed mid-stream: the next start found it open and says so.
+  for (const SessionInfo& s : *sessions) {
+    EXPECT_EQ(s.end_reason, SessionEndReason::kCrashed) << s.name;
+    EXPECT_EQ(s.ended_unix_ns, 0) << s.name;
+  }
   EXPECT_EQ(server.Stop(SIGTERM), 0);
 }
 

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <vector>
 
 #include "common/pose.h"
 
@@ -103,6 +105,31 @@ TEST(PoseLookupTest, EmptyAndSinglePose) {
   ASSERT_TRUE(single.At(kT0 + 100 * kMs));
   EXPECT_TRUE(single.At(kT0 + 100 * kMs)->translation().isApprox(Eigen::Vector3d(1, 2, 3)));
   EXPECT_FALSE(single.At(kT0 + 300 * kMs));
+}
+
+// Found by fuzz_trajectory (UBSan): stamps at the ends of what a trajectory file may hold
+// (+-9e9 s) are 1.8e19 ns apart, more than int64 holds; the signed differences overflowed.
+TEST(PoseLookupTest, StampsFarApartDoNotOverflow) {
+  constexpr int64_t kFar = 9'000'000'000'000'000'000LL;
+  constexpr int64_t kMin = std::numeric_limits<int64_t>::min();
+  constexpr int64_t kMax = std::numeric_limits<int64_t>::max();
+  const std::vector<StampedPose> poses = {At(-kFar, 0, {0, 0, 0}), At(kFar, 0, {1, 0, 0})};
+  const PoseLookup lookup(poses);
+  EXPECT_FALSE(lookup.At(0));  // inside the span, across a gap far beyond the limit
+  EXPECT_FALSE(lookup.At(kMin));
+  EXPECT_FALSE(lookup.At(kMax));
+  EXPECT_TRUE(lookup.At(kFar));
+
+  PoseLookupOptions unlimited;
+  unlimited.max_interp_gap_ns = kMax;
+  unlimited.max_extrapolation_ns = kMax;
+  const PoseLookup wide(poses, unlimited);
+  ASSERT_TRUE(wide.At(0));
+  EXPECT_NEAR(wide.At(0)->translation().x(), 0.5, 1e-12);
+  ASSERT_TRUE(wide.At(kMin));
+  EXPECT_EQ(wide.At(kMin)->translation().x(), 0);
+  ASSERT_TRUE(wide.At(kMax));
+  EXPECT_EQ(wide.At(kMax)->translation().x(), 1);
 }
 
 }  // namespace

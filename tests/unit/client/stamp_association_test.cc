@@ -2,6 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <limits>
+#include <random>
+#include <tuple>
+#include <vector>
+
 namespace semmap {
 namespace {
 
@@ -42,6 +48,62 @@ TEST(AssociateStampsTest, TiesGoToTheEarlierStamp) {
   EXPECT_EQ(AssociateStamps({10 * kMs, 0}, {5 * kMs}, kMax), (Partners{std::nullopt, 0}));
   // a = 5 ms is 5 ms from b = 0 and b = 10 ms: the earlier depth stamp.
   EXPECT_EQ(AssociateStamps({5 * kMs}, {10 * kMs, 0}, kMax), (Partners{1}));
+}
+
+// Found reviewing fuzz_tum_lists: the candidate pairs were listed first, and with stamps 1 ns
+// apart every pair is within 20 ms, so two lists of 20000 lines (a 1 MB dataset) asked for
+// 4e8 pairs (9.6 GB). Now memory grows with the lists, not their product.
+TEST(AssociateStampsTest, DenseStampsNeedNoPairList) {
+  std::vector<int64_t> a, b;
+  for (int64_t i = 0; i < 20000; ++i) a.push_back(i);
+  for (int64_t i = 19999; i >= 0; --i) b.push_back(i);
+  const Partners p = AssociateStamps(a, b, kMax);
+  ASSERT_EQ(p.size(), a.size());
+  for (size_t i = 0; i < a.size(); ++i) ASSERT_EQ(p[i], a.size() - 1 - i) << i;
+}
+
+TEST(AssociateStampsTest, StampsAtTheEndsOfTheRange) {
+  constexpr int64_t kMin = std::numeric_limits<int64_t>::min();
+  constexpr int64_t kMaxStamp = std::numeric_limits<int64_t>::max();
+  EXPECT_EQ(AssociateStamps({kMin, kMaxStamp}, {kMaxStamp - 1, kMin + 1}, kMax), (Partners{1, 0}));
+  EXPECT_EQ(AssociateStamps({kMin}, {kMaxStamp}, kMax), (Partners{std::nullopt}));
+}
+
+TEST(AssociateStampsTest, EqualStampsPairInIndexOrder) {
+  EXPECT_EQ(AssociateStamps({0, 0, 0}, {0, 0}, kMax), (Partners{0, 1, std::nullopt}));
+  EXPECT_EQ(AssociateStamps({0}, {0}, 0), (Partners{std::nullopt}));
+}
+
+// associate.py's rule as written: every pair within the threshold, sorted, taken greedily.
+Partners AllPairs(const std::vector<int64_t>& a, const std::vector<int64_t>& b, int64_t max) {
+  std::vector<std::tuple<int64_t, int64_t, int64_t, size_t, size_t>> pairs;
+  for (size_t i = 0; i < a.size(); ++i) {
+    for (size_t j = 0; j < b.size(); ++j) {
+      const int64_t d = a[i] > b[j] ? a[i] - b[j] : b[j] - a[i];
+      if (d < max) pairs.emplace_back(d, a[i], b[j], i, j);
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  Partners partner(a.size());
+  std::vector<bool> used(b.size(), false);
+  for (const auto& [d, sa, sb, i, j] : pairs) {
+    if (partner[i] || used[j]) continue;
+    partner[i] = j;
+    used[j] = true;
+  }
+  return partner;
+}
+
+TEST(AssociateStampsTest, MatchesAllPairsGreedyOnRandomStampsWithTies) {
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 3000; ++trial) {
+    const int range = 1 + static_cast<int>(rng() % 12);
+    std::vector<int64_t> a(rng() % 9), b(rng() % 9);
+    for (int64_t& s : a) s = static_cast<int64_t>(rng() % range);
+    for (int64_t& s : b) s = static_cast<int64_t>(rng() % range);
+    const int64_t max = 1 + static_cast<int64_t>(rng() % 5);
+    ASSERT_EQ(AssociateStamps(a, b, max), AllPairs(a, b, max)) << "trial " << trial;
+  }
 }
 
 TEST(AssociateStampsTest, EmptyInputs) {

@@ -29,6 +29,21 @@ TEST(PoseTest, ValidationRejectsDegenerate) {
   EXPECT_EQ(ValidatePoseTq(p).code(), StatusCode::kInvalidArgument);
 }
 
+// UTM coordinates are places; a finite but absurd position is not.
+TEST(PoseTest, PositionsAreBoundedToEarthScale) {
+  PoseTq p;
+  p.t = Eigen::Vector3d(690'000.0, 5'335'000.0, 500.0);  // UTM 32N, Munich
+  EXPECT_TRUE(ValidatePoseTq(p).ok());
+  p.t = Eigen::Vector3d(0, -kMaxPositionM, kMaxPositionM);
+  EXPECT_TRUE(ValidatePoseTq(p).ok());
+  p.t.z() = 1.0000001e7;
+  const Status far = ValidatePoseTq(p);
+  EXPECT_EQ(far.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(far.message().find("beyond 1e7 m"), std::string::npos) << far.message();
+  p.t = Eigen::Vector3d(-3e300, 0, 0);
+  EXPECT_EQ(ValidatePoseTq(p).code(), StatusCode::kInvalidArgument);
+}
+
 TEST(PoseTest, RotationAngleAndInterpolation) {
   Eigen::Isometry3d a = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d b = Eigen::Isometry3d::Identity();

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "server/mapping/cloud_pcd_reader.h"
+#include "server/mapping/layer_frame.h"
 #include "server/mapping/map_layer_builder.h"
 #include "server/query/map_export.h"
 #include "storage/sqlite/sqlite_map_store.h"
@@ -274,6 +275,75 @@ TEST_F(MapLayersTest, PersistedLayersEqualAFreshBuildWhateverTheArrivalOrder) {
   StatusOr<PointCloudMap> cloud = PointCloudMap::Build(FreshInput(clouds, false), options_.cloud);
   ASSERT_TRUE(cloud.ok());
   EXPECT_EQ(PointKeys(StoredCloud()), PointKeys(cloud->points()));
+}
+
+// KNOWN_POSES from GPS / UTM: the map frame's origin is thousands of kilometres away. The layers
+// are built around the first keyframe (rounded to a kilometre) and equal a build of the room at
+// home; the origin is stored with them and read back by a restarted builder and the exports.
+TEST_F(MapLayersTest, LayersFarFromTheMapOriginAreBuiltAroundTheFirstKeyframe) {
+  const Eigen::Vector3d utm(690000.0, 5335000.0, 0.0);
+  Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
+  shift.translation() = utm;
+  std::unique_ptr<MapLayerBuilder> builder = StartBuilder(/*restore=*/false);
+  ASSERT_NE(builder, nullptr);
+  for (const Keyframe& k : Keyframes()) {
+    ASSERT_TRUE(builder
+                    ->AddKeyframeImages(session_.id, k.seq, {k.frame.depth, synth::kDepthScale},
+                                        k.frame.bgr, SharedRenderer().camera())
+                    .ok());
+    ASSERT_TRUE(
+        builder->SetKeyframePoses({{session_.id, k.seq, shift * k.T_world_camera}}, false).ok());
+  }
+  // One keyframe 1700 m further on: beyond the tree's reach at 5 cm, left out, not an error.
+  const Keyframe& far = Keyframes()[3];
+  Eigen::Isometry3d away = shift * far.T_world_camera;
+  away.translation().x() += 1700.0;
+  ASSERT_TRUE(builder
+                  ->AddKeyframeImages(session_.id, 1000, {far.frame.depth, synth::kDepthScale},
+                                      far.frame.bgr, SharedRenderer().camera())
+                  .ok());
+  ASSERT_TRUE(builder->SetKeyframePoses({{session_.id, 1000, away}}, false).ok());
+  ASSERT_TRUE(builder->Flush().ok());
+  EXPECT_EQ(builder->stats().keyframes_inserted, Keyframes().size());
+  EXPECT_EQ(builder->stats().keyframes_beyond_reach, 1u);
+
+  const std::vector<KeyframeCloud> clouds = Clouds(options_);
+  StatusOr<OccupancyMap> fresh = OccupancyMap::Build(FreshInput(clouds, false), options_.occupancy);
+  ASSERT_TRUE(fresh.ok());
+  EXPECT_EQ(Keys(StoredOccupancy()), Keys(*fresh));
+  StatusOr<MapBlob> origin = read_->GetBlob(map_.id, kLayerOriginBlobKind);
+  ASSERT_TRUE(origin.ok()) << origin.status().ToString();
+  EXPECT_EQ(DecodeLayerOrigin(origin->data).value(), utm);
+
+  // Exports name the origin; a restarted builder keeps it.
+  StatusOr<ExportResult> ot = Export("ot");
+  ASSERT_TRUE(ot.ok()) << ot.status().ToString();
+  EXPECT_EQ(ot->layer_origin, utm);
+  builder.reset();
+  builder = StartBuilder(/*restore=*/true);
+  ASSERT_TRUE(builder->Flush().ok());
+  EXPECT_EQ(DecodeLayerOrigin(read_->GetBlob(map_.id, kLayerOriginBlobKind)->data).value(), utm);
+}
+
+TEST(LayerFrameTest, OriginsRoundToKilometresAndRoundTrip) {
+  EXPECT_EQ(LayerOriginFor(Eigen::Vector3d(1.3, -0.6, 499.0)), Eigen::Vector3d::Zero());
+  EXPECT_EQ(LayerOriginFor(Eigen::Vector3d(690123.4, 5334567.8, -2.0)),
+            Eigen::Vector3d(690000, 5335000, 0));
+  EXPECT_EQ(LayerOriginFor(Eigen::Vector3d(std::nan(""), 0, 0)), Eigen::Vector3d::Zero());
+  const Eigen::Vector3d origin(690000, -5335000, 1000);
+  EXPECT_EQ(DecodeLayerOrigin(EncodeLayerOrigin(origin)).value(), origin);
+  for (const char* bad : {"", "semmap-layer-origin-v1 1 2\n", "semmap-layer-origin-v1 1 2 nan\n",
+                          "semmap-layer-origin-v1 1 2 3\nextra", "other 1 2 3\n",
+                          "semmap-layer-origin-v1 1 2 1e9\n"}) {
+    EXPECT_EQ(DecodeLayerOrigin(bad).status().code(), StatusCode::kDataLoss) << bad;
+  }
+  OccupancyMapOptions options;  // 5 cm, 4 m range: OctoMap's +-1638 m less the ray
+  EXPECT_NEAR(LayerReachM(options), 0.05 * 32768 * 0.99 - 4.0, 1e-9);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation().y() = 1600;
+  EXPECT_TRUE(WithinLayerReach(T, options));
+  T.translation().y() = -1700;
+  EXPECT_FALSE(WithinLayerReach(T, options));
 }
 
 TEST_F(MapLayersTest, CorrectionRebuildsTheMapToMatchAFreshBuildFromTheCorrectedPoses) {

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <map>
 #include <memory>
 #include <random>
@@ -643,6 +644,68 @@ TEST(OccupancyMapTest, BadInputsAreErrors) {
   EXPECT_TRUE(map->Insert(cloud, Eigen::Isometry3d::Identity()).ok());
   EXPECT_EQ(map->Occupancy({0.01, 0.01, 1.0}), VoxelState::kOccupied);
   EXPECT_EQ(map->Occupancy({0.01, 0.01, 0.5}), VoxelState::kFree);
+}
+
+// Found by fuzz_occupancy_ot (UBSan): a finite point beyond the int range went to OctoMap's
+// coordToKeyChecked, which converts the scaled coordinate to int before its range check.
+TEST(OccupancyMapTest, QueriesFarOutsideTheTreeAreUnknown) {
+  StatusOr<OccupancyMap> map = OccupancyMap::Create({});
+  ASSERT_TRUE(map.ok());
+  KeyframeCloud cloud;
+  cloud.points.emplace_back(0, 0, 1);
+  cloud.colours.push_back({0, 0, 0});
+  ASSERT_TRUE(map->Insert(cloud, Eigen::Isometry3d::Identity()).ok());
+  const double edge = map->resolution() * 32768.0;  // the tree's half extent, 1638.4 m
+  for (const Eigen::Vector3d& p :
+       {Eigen::Vector3d(1e30, 0, 0), Eigen::Vector3d(0, -1e30, 0), Eigen::Vector3d(0, 0, 3e9),
+        Eigen::Vector3d(0, 0, std::numeric_limits<double>::max()), Eigen::Vector3d(edge, 0, 0),
+        Eigen::Vector3d(0, -edge, 0)}) {
+    EXPECT_EQ(map->Occupancy(p), VoxelState::kUnknown) << p.transpose();
+    EXPECT_FALSE(map->ColourAt(p)) << p.transpose();
+  }
+  EXPECT_EQ(map->Occupancy({edge - 0.1, 0, 0}), VoxelState::kUnknown);  // inside, never seen
+  EXPECT_EQ(map->Occupancy({0.01, 0.01, 1.0}), VoxelState::kOccupied);
+}
+
+// Found by fuzz_occupancy_ot's round trip: OctoMap writes "res" with 6 significant digits, so a
+// map read back from .ot had another resolution (and voxel grid) than the one written.
+TEST(OccupancyMapTest, OtKeepsTheExactResolution) {
+  for (const double resolution : {0.05, 1.0 / 30.0, 0.0123456789, 0.001}) {
+    OccupancyMapOptions options;
+    options.resolution_m = resolution;
+    StatusOr<OccupancyMap> map = OccupancyMap::Create(options);
+    ASSERT_TRUE(map.ok());
+    KeyframeCloud cloud;
+    cloud.points.emplace_back(0.1F, 0, 0.3F);
+    cloud.colours.push_back({10, 20, 30});
+    ASSERT_TRUE(map->Insert(cloud, Eigen::Isometry3d::Identity()).ok());
+    StatusOr<std::string> ot = map->SerializeOt();
+    ASSERT_TRUE(ot.ok());
+    StatusOr<OccupancyMap> back = OccupancyMap::DeserializeOt(*ot);
+    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    EXPECT_EQ(back->resolution(), resolution);
+    EXPECT_EQ(back->size(), map->size());
+    EXPECT_EQ(*back->SerializeOt(), *ot);
+  }
+  // The usual resolutions keep OctoMap's short form.
+  StatusOr<OccupancyMap> map = OccupancyMap::Create({});
+  ASSERT_TRUE(map.ok());
+  EXPECT_NE(map->SerializeOt()->find("\nres 0.05\n"), std::string::npos);
+}
+
+// Overflow edge of the node count: 2^61 + 1 nodes of 8 bytes is 2^64 + 8 bytes, which wraps to
+// the 8 bytes given. Checked, it is a mismatch (DATA_LOSS), never a tree.
+TEST(OccupancyMapTest, NodeCountWhoseByteSizeWrapsIsDataLoss) {
+  const std::string node("\0\0\0\0\xff\xff\xff\0", 8);  // log-odds 0, white, no children
+  for (const char* count : {"2305843009213693953", "2305843009213693952", "9223372036854775807"}) {
+    const std::string ot = std::string("# Octomap OcTree file\nid ColorOcTree\nsize ") + count +
+                           "\nres 0.05\ndata\n" + node;
+    EXPECT_EQ(OccupancyMap::DeserializeOt(ot).status().code(), StatusCode::kDataLoss) << count;
+  }
+  const std::string one = "# Octomap OcTree file\nid ColorOcTree\nsize 1\nres 0.05\ndata\n" + node;
+  StatusOr<OccupancyMap> map = OccupancyMap::DeserializeOt(one);
+  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  EXPECT_EQ(map->size(), 1U);
 }
 
 class DamagedOtTest : public ::testing::Test {

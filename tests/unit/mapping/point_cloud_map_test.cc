@@ -23,6 +23,7 @@
 #include <utility>
 #include <vector>
 
+#include "server/mapping/cloud_pcd_reader.h"
 #include "tests/testing/temp_dir.h"
 
 namespace semmap {
@@ -341,6 +342,26 @@ INSTANTIATE_TEST_SUITE_P(BinaryAndAscii, ExportTest, ::testing::Bool(),
                          [](const ::testing::TestParamInfo<bool>& param) {
                            return param.param ? "Binary" : "Ascii";
                          });
+
+// Overflow edge of the PCD reader's size check: POINTS 2^60 + 1 of 16 bytes is 2^64 + 16 bytes,
+// which wraps to the 16 bytes given; reading that many points would allocate without bound.
+TEST(CloudPcdReaderTest, PointCountWhoseByteSizeWrapsIsDataLoss) {
+  StatusOr<std::string> one = PointCloudMap::FromPoints({{1, 2, 3, 4, 5, 6}}, {}).ToPcd(true);
+  ASSERT_TRUE(one.ok());
+  StatusOr<std::vector<CloudPoint>> read = ReadCloudPcd(*one);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ASSERT_EQ(read->size(), 1U);
+  for (const std::string count :
+       {"1152921504606846977", "1152921504606846976", "18446744073709551615"}) {
+    std::string pcd = *one;
+    for (const std::string key : {"WIDTH 1\n", "POINTS 1\n"}) {
+      const size_t at = pcd.find(key);
+      ASSERT_NE(at, std::string::npos);
+      pcd.replace(at, key.size(), key.substr(0, key.size() - 2) + count + "\n");
+    }
+    EXPECT_EQ(ReadCloudPcd(pcd).status().code(), StatusCode::kDataLoss) << count;
+  }
+}
 
 }  // namespace
 }  // namespace semmap

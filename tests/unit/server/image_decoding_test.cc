@@ -90,5 +90,50 @@ TEST(ImageDecodingTest, DepthFormats) {
   EXPECT_EQ(DecodeDepth(colour_png, 64, 48).status().code(), StatusCode::kInvalidArgument);
 }
 
+// The hostile-client finding: width x height x bytes per pixel wrapped around 2^64 and passed
+// the size check with 0 bytes of data. Sizes are checked against the camera first, and computed
+// in checked arithmetic where they are not.
+TEST(ImageDecodingTest, OverflowingRawSizesAreInvalidArgument) {
+  const uint32_t huge = 1u << 31;
+  for (const char* encoding : {"32FC1", "16UC1"}) {
+    ImageMessage image;
+    image.kind = ImageMessage::Kind::kRaw;
+    image.encoding = encoding;
+    image.width = huge;
+    image.height = huge;
+    const StatusOr<DecodedDepth> depth = DecodeDepth({image, 5000}, 640, 480);
+    ASSERT_FALSE(depth.ok());
+    EXPECT_EQ(depth.status().code(), StatusCode::kInvalidArgument);
+    EXPECT_NE(depth.status().message().find("is 2147483648x2147483648 but the session camera is "
+                                            "640x480"),
+              std::string::npos)
+        << depth.status().message();
+  }
+  for (const char* encoding : {"rgb8", "bgr8", "mono8"}) {
+    ImageMessage image;
+    image.kind = ImageMessage::Kind::kRaw;
+    image.encoding = encoding;
+    image.width = 0xFFFFFFFFu;
+    image.height = 0xFFFFFFFFu;
+    image.step = 0xFFFFFFFFu;
+    EXPECT_EQ(DecodeColour(image, 640, 480).status().code(), StatusCode::kInvalidArgument);
+  }
+  // A camera of the claimed size (INT_MAX wide): the data size check is exact, no wrap-around.
+  ImageMessage wide;
+  wide.kind = ImageMessage::Kind::kRaw;
+  wide.encoding = "rgb8";
+  wide.width = 0x7FFFFFFFu;
+  wide.height = 1;
+  wide.step = 0xFFFFFFFFu;
+  const StatusOr<cv::Mat> refused = DecodeColour(wide, 0x7FFFFFFF, 1);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("is less than width*bytes_per_pixel"),
+            std::string::npos)
+      << refused.status().message();
+  wide.step = 0;
+  EXPECT_NE(DecodeColour(wide, 0x7FFFFFFF, 1).status().message().find("needs 6442450941"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace semmap

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <numeric>
@@ -367,6 +368,54 @@ TEST_F(CorruptFileTest, InconsistentTreeWithAValidChecksumIsDataLoss) {
   const Sha256Digest digest = Sha256(bad);
   bad.append(reinterpret_cast<const char*>(digest.data()), digest.size());
   EXPECT_EQ(LoadCode(bad), StatusCode::kDataLoss);
+}
+
+// `body` (a file without its digest) with a valid SHA-256 trailer.
+std::string Sealed(std::string body) {
+  const Sha256Digest digest = Sha256(body);
+  body.append(reinterpret_cast<const char*>(digest.data()), digest.size());
+  return body;
+}
+
+void PutU32At(std::string& bytes, size_t offset, uint32_t v) {
+  for (int i = 0; i < 4; ++i) bytes[offset + i] = static_cast<char>((v >> (8 * i)) & 0xFF);
+}
+
+// Overflow edge of the size check: nodes 2^32 - 1 and descriptor bytes 2^32 - 7 make
+// nodes * (8 + bytes) = 2^64 - 1, so with one word the announced size wraps to 47 bytes, the
+// body given. Checked, it is an overflow, not a match.
+TEST_F(CorruptFileTest, SizeThatWrapsPast2To64IsDataLoss) {
+  std::string body = bytes_.substr(0, 40);  // magic + header
+  PutU32At(body, 20, 0xFFFFFFF9u);          // descriptor bytes
+  PutU32At(body, 24, 0xFFFFFFFFu);          // nodes
+  PutU32At(body, 28, 1);                    // words
+  body.resize(47, '\0');
+  const Status s = BowVocabulary::Deserialize(Sealed(body)).status();
+  EXPECT_EQ(s.code(), StatusCode::kDataLoss);
+  EXPECT_NE(s.message().find("does not match its header (overflow)"), std::string::npos)
+      << s.message();
+}
+
+// Found by fuzz_bow_vocabulary (a resealed file): word weights of 1e210 and 2e-319 loaded, and
+// Transform gave a BowVector whose normalised weights were 0, not "positive, summing to 1".
+// Weights are idf = log(N / n_w) in [0, log N]; others are damage.
+TEST_F(CorruptFileTest, WeightsThatAreNoIdfAreDataLoss) {
+  const std::string body = bytes_.substr(0, bytes_.size() - 32);
+  const size_t last_weight = body.size() - 8;
+  const double max_idf = std::log(static_cast<double>(vocabulary_.training_images()));
+  for (const double w : {1e210, max_idf * 1.001, 2.29785e-319, -1.0}) {
+    std::string bad = body;
+    uint64_t bits = 0;
+    std::memcpy(&bits, &w, sizeof(bits));
+    for (int i = 0; i < 8; ++i) bad[last_weight + i] = static_cast<char>((bits >> (8 * i)) & 0xFF);
+    const Status s = BowVocabulary::Deserialize(Sealed(bad)).status();
+    EXPECT_EQ(s.code(), StatusCode::kDataLoss) << w;
+  }
+  std::string edge = body;  // exactly log N (a word in one training image) loads
+  uint64_t bits = 0;
+  std::memcpy(&bits, &max_idf, sizeof(bits));
+  for (int i = 0; i < 8; ++i) edge[last_weight + i] = static_cast<char>((bits >> (8 * i)) & 0xFF);
+  EXPECT_TRUE(BowVocabulary::Deserialize(Sealed(edge)).ok());
 }
 
 TEST_F(CorruptFileTest, MissingFileIsNotFound) {

@@ -191,5 +191,36 @@ TEST(MigrationsTest, Version2DatabaseUpgradesToObjectsKeepingItsData) {
   EXPECT_OK(s.IntegrityCheck());
 }
 
+// A v3 database's sessions, ended or not, read back without a reason (unknown); the next start
+// marks the open one crashed.
+TEST(MigrationsTest, Version3SessionsUpgradeToEndReasons) {
+  TempDir dir;
+  const std::string path = dir.File("semmap.db");
+  {
+    auto db = Open(path);
+    ASSERT_NE(db, nullptr);
+    ASSERT_OK(ApplyMigrations(*db, SchemaMigrations().first(3)));
+    ASSERT_OK(db->Exec(
+        "INSERT INTO maps VALUES (1, 'lab', 5);"
+        "INSERT INTO sessions (id, map_id, name, mode, width, height, fx, fy, cx, cy, k1, k2, p1,"
+        " p2, k3, depth_scale, started_ns, ended_ns) VALUES"
+        " (1, 1, 'ended', 1, 640, 480, 525, 525, 319.5, 239.5, 0, 0, 0, 0, 0, 5000, 7, 9),"
+        " (2, 1, 'open', 1, 640, 480, 525, 525, 319.5, 239.5, 0, 0, 0, 0, 0, 5000, 8, NULL);"));
+  }
+  auto store = SqliteMapStore::Open(path, {});
+  ASSERT_OK(store.status());
+  SqliteMapStore& s = **store;
+  EXPECT_GE(LatestSchemaVersion(), 4);
+  const SessionInfo ended = *s.GetSession("lab", "ended");
+  EXPECT_EQ(ended.end_reason, SessionEndReason::kUnspecified);
+  EXPECT_EQ(ended.ended_unix_ns, 9);
+  EXPECT_EQ(*s.MarkOpenSessionsCrashed(), 1);
+  EXPECT_EQ(s.GetSession("lab", "open")->end_reason, SessionEndReason::kCrashed);
+  EXPECT_EQ(s.GetSession("lab", "ended")->end_reason, SessionEndReason::kUnspecified);
+  // A stored reason must be a known one.
+  EXPECT_FALSE(s.connection().Exec("UPDATE sessions SET end_reason = 7 WHERE id = 1").ok());
+  EXPECT_OK(s.IntegrityCheck());
+}
+
 }  // namespace
 }  // namespace semmap::sqlite

@@ -211,10 +211,107 @@ TEST_F(SqliteMapStoreTest, GetSessionUnknownIsNotFound) {
 
 TEST_F(SqliteMapStoreTest, EndSession) {
   const SessionInfo s = Session("m", "s");
-  ASSERT_OK(store_->EndSession(s.id, 1'800'000'000'000'000'000));
+  ASSERT_OK(store_->EndSession(s.id, 1'800'000'000'000'000'000, SessionEndReason::kCompleted, ""));
   EXPECT_EQ(store_->GetSession("m", "s")->ended_unix_ns, 1'800'000'000'000'000'000);
-  EXPECT_EQ(store_->EndSession(999, 1).code(), StatusCode::kNotFound);
-  EXPECT_EQ(store_->EndSession(s.id, 0).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(store_->EndSession(999, 1, SessionEndReason::kCompleted, "").code(),
+            StatusCode::kNotFound);
+  EXPECT_EQ(store_->EndSession(s.id, 0, SessionEndReason::kCompleted, "").code(),
+            StatusCode::kInvalidArgument);
+}
+
+TEST_F(SqliteMapStoreTest, EndReasonsAndMessagesAreStored) {
+  const SessionInfo done = Session("m", "done");
+  const SessionInfo failed = Session("m", "failed");
+  const SessionInfo open = Session("m", "open");
+  ASSERT_OK(store_->EndSession(done.id, 10, SessionEndReason::kCompleted, ""));
+  ASSERT_OK(store_->EndSession(failed.id, 20, SessionEndReason::kError,
+                               "INVALID_ARGUMENT: frame seq 3 has no timestamp"));
+  // Only the server's start marks crashes; "open" cannot be a stored end.
+  EXPECT_EQ(store_->EndSession(open.id, 30, SessionEndReason::kCrashed, "").code(),
+            StatusCode::kInvalidArgument);
+  EXPECT_EQ(store_->EndSession(open.id, 30, SessionEndReason::kUnspecified, "").code(),
+            StatusCode::kInvalidArgument);
+  EXPECT_EQ(store_->GetSession("m", "open")->end_reason, SessionEndReason::kUnspecified);
+  Reopen();
+  EXPECT_EQ(store_->GetSession("m", "done")->end_reason, SessionEndReason::kCompleted);
+  const SessionInfo f = *store_->GetSession("m", "failed");
+  EXPECT_EQ(f.end_reason, SessionEndReason::kError);
+  EXPECT_EQ(f.end_message, "INVALID_ARGUMENT: frame seq 3 has no timestamp");
+  EXPECT_EQ(f.ended_unix_ns, 20);
+}
+
+TEST_F(SqliteMapStoreTest, OpenSessionsAreMarkedCrashedOnce) {
+  const SessionInfo done = Session("m", "done");
+  Session("m", "left-open");
+  ASSERT_OK(store_->EndSession(done.id, 10, SessionEndReason::kCompleted, ""));
+  EXPECT_EQ(store_->MarkOpenSessionsCrashed().value(), 1);
+  EXPECT_EQ(store_->MarkOpenSessionsCrashed().value(), 0);
+  const SessionInfo crashed = *store_->GetSession("m", "left-open");
+  EXPECT_EQ(crashed.end_reason, SessionEndReason::kCrashed);
+  EXPECT_EQ(crashed.ended_unix_ns, 0);  // nobody knows when it stopped
+  EXPECT_EQ(store_->GetSession("m", "done")->end_reason, SessionEndReason::kCompleted);
+}
+
+TEST_F(SqliteMapStoreTest, RemoveSessionTakesItsRowsAndTheMapsDerivedProducts) {
+  const SessionInfo a = Session("m", "a");
+  const SessionInfo b = Session("m", "b");
+  const SessionInfo other = Session("other", "c");
+  WriteBatch batch;
+  for (int64_t seq = 0; seq < 4; ++seq) batch.frames.emplace_back(a.id, FramePose(seq, seq < 2));
+  batch.frames.emplace_back(b.id, FramePose(0, true));
+  batch.keyframes.push_back(Keyframe(a.id, 0));
+  batch.keyframes.push_back(Keyframe(a.id, 1));
+  batch.keyframes.push_back(Keyframe(b.id, 0));
+  batch.keyframes.push_back(Keyframe(other.id, 0));
+  LinkRecord link;
+  link.map_id = a.map_id;
+  link.from_session_id = a.id;
+  link.from_seq = 1;
+  link.to_session_id = b.id;
+  link.to_seq = 0;
+  link.kind = LinkKind::kLoop;
+  batch.links.push_back(link);
+  batch.blobs.push_back({a.map_id, "octomap.ot", "tree", 1});
+  batch.blobs.push_back({other.map_id, "octomap.ot", "other tree", 1});
+  Write(batch);
+
+  StatusOr<RemovedCounts> removed = store_->RemoveSession(a.id);
+  ASSERT_OK(removed.status());
+  EXPECT_EQ(removed->map_id, a.map_id);
+  EXPECT_EQ(removed->sessions, 1);
+  EXPECT_EQ(removed->frames, 4);
+  EXPECT_EQ(removed->keyframes, 2);
+  EXPECT_EQ(store_->GetSession("m", "a").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(store_->GetSession("m", "b")->frame_count, 1);
+  EXPECT_EQ(Count("links"), 0);  // it named a removed keyframe
+  EXPECT_EQ(store_->GetBlob(a.map_id, "octomap.ot").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(store_->GetBlob(other.map_id, "octomap.ot")->data, "other tree");
+  EXPECT_EQ(store_->RemoveSession(a.id).status().code(), StatusCode::kNotFound);
+  ASSERT_OK(store_->IntegrityCheck());
+}
+
+TEST_F(SqliteMapStoreTest, RemoveMapTakesEverythingInIt) {
+  const SessionInfo a = Session("m", "a");
+  const SessionInfo b = Session("m", "b");
+  const SessionInfo other = Session("other", "c");
+  WriteBatch batch;
+  batch.frames.emplace_back(a.id, FramePose(0, true));
+  batch.frames.emplace_back(b.id, FramePose(0));
+  batch.frames.emplace_back(other.id, FramePose(0));
+  batch.keyframes.push_back(Keyframe(a.id, 0));
+  batch.blobs.push_back({a.map_id, "cloud.pcd", "cloud", 1});
+  Write(batch);
+  StatusOr<RemovedCounts> removed = store_->RemoveMap(a.map_id);
+  ASSERT_OK(removed.status());
+  EXPECT_EQ(removed->sessions, 2);
+  EXPECT_EQ(removed->frames, 2);
+  EXPECT_EQ(removed->keyframes, 1);
+  EXPECT_EQ(store_->GetMap("m").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(Count("sessions"), 1);
+  EXPECT_EQ(Count("frames"), 1);
+  EXPECT_EQ(Count("blobs"), 0);
+  EXPECT_EQ(store_->RemoveMap(a.map_id).status().code(), StatusCode::kNotFound);
+  ASSERT_OK(store_->IntegrityCheck());
 }
 
 // --- frames and trajectory ---
@@ -734,7 +831,7 @@ TEST_F(SqliteMapStoreTest, EverythingPersistsAcrossReopen) {
   batch.links.push_back(link);
   batch.blobs.push_back({s.map_id, "cloud.pcd", "points", 5});
   const WriteResult written = Write(batch);
-  ASSERT_OK(store_->EndSession(s.id, 77));
+  ASSERT_OK(store_->EndSession(s.id, 77, SessionEndReason::kCompleted, ""));
   ASSERT_OK(store_->Checkpoint());
 
   Reopen();

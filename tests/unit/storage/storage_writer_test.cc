@@ -46,7 +46,13 @@ class RecordingStore final : public MapStore {
   StatusOr<SessionInfo> CreateSession(const SessionInfo& s) override {
     return inner_->CreateSession(s);
   }
-  Status EndSession(int64_t id, int64_t ns) override { return inner_->EndSession(id, ns); }
+  Status EndSession(int64_t id, int64_t ns, SessionEndReason reason,
+                    const std::string& message) override {
+    return inner_->EndSession(id, ns, reason, message);
+  }
+  StatusOr<int64_t> MarkOpenSessionsCrashed() override { return inner_->MarkOpenSessionsCrashed(); }
+  StatusOr<RemovedCounts> RemoveSession(int64_t id) override { return inner_->RemoveSession(id); }
+  StatusOr<RemovedCounts> RemoveMap(int64_t id) override { return inner_->RemoveMap(id); }
   StatusOr<WriteResult> Write(const WriteBatch& batch) override {
     {
       std::lock_guard lock(mutex_);

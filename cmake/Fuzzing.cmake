@@ -1,0 +1,49 @@
+# SEMMAP_FUZZ=ON (clang only): every target below this point is compiled with libFuzzer's
+# coverage instrumentation plus ASan and UBSan (any UB aborts, so the fuzzer sees it as a
+# crash), and tests/fuzz builds one fuzz_<name> per tests/fuzz/<name>_fuzz.cc, all under the
+# custom target fuzz_all. `cmake --preset fuzz` configures this; scripts/fuzz.sh runs it.
+option(SEMMAP_FUZZ "Build the libFuzzer targets (clang, ASan + UBSan)" OFF)
+if(SEMMAP_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "SEMMAP_FUZZ needs clang++ (libFuzzer); use `cmake --preset fuzz`")
+  endif()
+  if(SEMMAP_SANITIZE)
+    message(FATAL_ERROR "SEMMAP_FUZZ brings its own sanitizers; leave SEMMAP_SANITIZE empty")
+  endif()
+  message(STATUS "semmap: fuzzing build (libFuzzer, address, undefined)")
+  # -Wno-unknown-warning-option: semmap_set_warnings' GCC-only -Wshadow=local.
+  add_compile_options(-fsanitize=fuzzer-no-link,address,undefined
+                      -fno-sanitize-recover=undefined -fno-omit-frame-pointer
+                      -Wno-unknown-warning-option)
+  # Executables that are not fuzz targets (fuzz_make_seeds) still need the sanitizer runtimes;
+  # semmap_add_fuzz_target adds libFuzzer's main on top.
+  add_link_options(-fsanitize=address,undefined)
+endif()
+
+# semmap_add_fuzz_target(<name> [SOURCES extra.cc...] [LIBS lib...]): fuzz_<name> from
+# tests/fuzz/<name>_fuzz.cc (LLVMFuzzerTestOneInput) plus SOURCES, linked with LIBS and
+# libFuzzer's main; part of fuzz_all.
+function(semmap_add_fuzz_target name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
+  if(NOT TARGET fuzz_all)
+    add_custom_target(fuzz_all)
+  endif()
+  add_executable(fuzz_${name} ${name}_fuzz.cc ${ARG_SOURCES})
+  target_include_directories(fuzz_${name} PRIVATE ${PROJECT_SOURCE_DIR})
+  target_link_libraries(fuzz_${name} PRIVATE ${ARG_LIBS})
+  target_link_options(fuzz_${name} PRIVATE -fsanitize=fuzzer,address,undefined)
+  semmap_set_warnings(fuzz_${name})
+  add_dependencies(fuzz_all fuzz_${name})
+  set_property(GLOBAL APPEND PROPERTY SEMMAP_FUZZ_TARGETS ${name})
+endfunction()
+
+# <build>/fuzz_targets.txt: the registered targets, one a line (what scripts/fuzz.sh runs),
+# written once the whole project is configured.
+function(semmap_write_fuzz_targets)
+  get_property(names GLOBAL PROPERTY SEMMAP_FUZZ_TARGETS)
+  list(JOIN names "\n" text)
+  file(WRITE ${PROJECT_BINARY_DIR}/fuzz_targets.txt "${text}\n")
+endfunction()
+if(SEMMAP_FUZZ)
+  cmake_language(DEFER DIRECTORY ${CMAKE_SOURCE_DIR} CALL semmap_write_fuzz_targets)
+endif()
