@@ -1,13 +1,10 @@
 #include "server/service/ingest_conversions.h"
 
-#include <google/protobuf/unknown_field_set.h>
-#include <grpcpp/support/proto_buffer_reader.h>
-
-#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <utility>
-#include <vector>
+
+#include "server/service/wire_parsing.h"
 
 namespace semmap {
 namespace {
@@ -71,47 +68,28 @@ IngestMessage ConvertFrame(v1::Frame* in) {
   return frame;
 }
 
-// Why bytes did not parse as an IngestRequest, as far as the wire format tells.
-std::string ParseFailureReason(std::string_view bytes) {
-  google::protobuf::UnknownFieldSet fields;
-  if (!fields.ParseFromArray(bytes.data(), static_cast<int>(bytes.size()))) {
-    return "the bytes are not protobuf wire data (garbage, or a truncated message)";
-  }
-  return "the wire data does not decode as its fields (invalid UTF-8 in a string field, a field "
-         "of the wrong type, or a nested message that is truncated or garbage)";
+std::string MessageName(uint64_t index) {
+  return "message " + std::to_string(index) + " of the ingest stream";
 }
 
-IngestMessage Unparseable(std::string_view bytes, uint64_t index) {
-  return IngestInvalid{InvalidArgumentError(
-      "message " + std::to_string(index) + " of the ingest stream (" +
-      std::to_string(bytes.size()) + " bytes) is not a valid semmap.v1.IngestRequest: " +
-      ParseFailureReason(bytes) + "; nothing from it on was read")};
+IngestMessage Unparseable(const Status& status) {
+  return IngestInvalid{
+      Status(status.code(), status.message() + "; nothing from it on was read")};
 }
 
 }  // namespace
 
-IngestMessage ParseIngestRequest(grpc::ByteBuffer* buffer, uint64_t index) {
+IngestMessage ParseIngestRequest(const grpc::ByteBuffer& buffer, uint64_t index) {
   v1::IngestRequest request;
-  {
-    grpc::ProtoBufferReader reader(buffer);
-    if (request.ParseFromZeroCopyStream(&reader)) return FromProto(std::move(request));
-  }
-  std::vector<grpc::Slice> slices;
-  std::string bytes;
-  if (buffer->Dump(&slices).ok()) {
-    for (const grpc::Slice& slice : slices) {
-      bytes.append(reinterpret_cast<const char*>(slice.begin()), slice.size());
-    }
-  }
-  return Unparseable(bytes, index);
+  const Status parsed = ParseWire(buffer, &request, MessageName(index));
+  if (!parsed.ok()) return Unparseable(parsed);
+  return FromProto(std::move(request));
 }
 
 IngestMessage ParseIngestRequest(std::string_view bytes, uint64_t index) {
   v1::IngestRequest request;
-  if (bytes.size() > static_cast<size_t>(INT32_MAX) ||
-      !request.ParseFromArray(bytes.data(), static_cast<int>(bytes.size()))) {
-    return Unparseable(bytes.substr(0, std::min<size_t>(bytes.size(), INT32_MAX)), index);
-  }
+  const Status parsed = ParseWire(bytes, &request, MessageName(index));
+  if (!parsed.ok()) return Unparseable(parsed);
   return FromProto(std::move(request));
 }
 

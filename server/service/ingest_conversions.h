@@ -18,7 +18,7 @@ IngestMessage FromProto(v1::IngestRequest&& request);
 // wire. Bytes that are not an IngestRequest (garbage, truncated, invalid UTF-8 in a string field)
 // become IngestInvalid naming the message, so the stream ends INVALID_ARGUMENT instead of looking
 // like the client's half-close.
-IngestMessage ParseIngestRequest(grpc::ByteBuffer* buffer, uint64_t index);
+IngestMessage ParseIngestRequest(const grpc::ByteBuffer& buffer, uint64_t index);
 IngestMessage ParseIngestRequest(std::string_view bytes, uint64_t index);
 
 void ToProto(const SessionInfo& session, v1::IngestStarted* out);

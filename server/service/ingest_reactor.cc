@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "server/service/ingest_conversions.h"
+#include "server/service/wire_parsing.h"
 
 namespace semmap {
 
@@ -81,14 +82,11 @@ void IngestReactor::DecideWriteOrFinishLocked(Actions* actions) {
     const v1::IngestResponse& next = outgoing_.front();
     if (next.has_progress()) progress_queued_ = false;
     grpc::ByteBuffer buffer;
-    bool own_buffer = false;
-    const grpc::Status serialized =
-        grpc::SerializationTraits<v1::IngestResponse>::Serialize(next, &buffer, &own_buffer);
+    const Status serialized = SerializeWire(next, &buffer);
     outgoing_.pop_front();
     if (!serialized.ok()) {
-      // Only a response over 2 GiB fails to serialise; ours are small.
       finish_called_ = true;
-      actions->finish = grpc::Status(grpc::StatusCode::INTERNAL, "a response failed to serialise");
+      actions->finish = ToGrpcStatus(serialized);
       return;
     }
     writing_ = std::move(buffer);
@@ -122,7 +120,7 @@ void IngestReactor::OnReadDone(bool ok) {
           IngestInvalid{InvalidArgumentError("a message arrived after the end message")});
     } else {
       ++messages_read_;
-      IngestMessage message = ParseIngestRequest(&request_, messages_read_);
+      IngestMessage message = ParseIngestRequest(request_, messages_read_);
       request_.Clear();
       if (std::holds_alternative<IngestEnd>(message)) {
         end_held_ = true;  // confirmed by the half-close that must follow

@@ -8,6 +8,7 @@
 #include "server/service/ingest_reactor.h"
 #include "server/service/message_stream_reactor.h"
 #include "server/service/request_conversions.h"
+#include "server/service/wire_parsing.h"
 
 namespace semmap {
 namespace {
@@ -39,147 +40,168 @@ CancelCheck ClientStillWaiting(grpc::CallbackServerContext* context) {
 
 }  // namespace
 
+template <typename Request, typename Response>
+grpc::ServerUnaryReactor* MapServiceImpl::Unary(grpc::CallbackServerContext* context,
+                                                const Raw* in, Raw* out) {
+  Request request;
+  Status status = ParseWire(*in, &request, "the request");
+  Response response;
+  if (status.ok()) status = Answer(context, request, &response);
+  if (status.ok()) status = SerializeWire(response, out);
+  return FinishUnary(context, status);
+}
+
+template <typename Request>
+grpc::ServerWriteReactor<grpc::ByteBuffer>* MapServiceImpl::Stream(
+    grpc::CallbackServerContext* context, const Raw* in) {
+  Request request;
+  const Status parsed = ParseWire(*in, &request, "the request");
+  if (!parsed.ok()) return new MessageStreamReactor(ToGrpcStatus(parsed));
+  auto messages = Answer(context, request);
+  if (!messages.ok()) return new MessageStreamReactor(ToGrpcStatus(messages.status()));
+  return new MessageStreamReactor(*messages);
+}
+
 grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* MapServiceImpl::Ingest(
     grpc::CallbackServerContext* context) {
   return new IngestReactor(context, ingest_);
 }
 
-grpc::ServerUnaryReactor* MapServiceImpl::ListMaps(grpc::CallbackServerContext* context,
-                                                   const v1::ListMapsRequest*,
-                                                   v1::ListMapsResponse* response) {
-  StatusOr<std::vector<MapInfo>> maps = query_->ListMaps();
-  if (maps.ok()) {
-    for (const MapInfo& map : *maps) ToProto(map, response->add_maps());
+#define SEMMAP_UNARY(Method)                                                              \
+  grpc::ServerUnaryReactor* MapServiceImpl::Method(grpc::CallbackServerContext* context, \
+                                                   const Raw* in, Raw* out) {            \
+    return Unary<v1::Method##Request, v1::Method##Response>(context, in, out);          \
   }
-  return FinishUnary(context, maps.status());
+SEMMAP_UNARY(ListMaps)
+SEMMAP_UNARY(ListSessions)
+SEMMAP_UNARY(RegisterObject)
+SEMMAP_UNARY(ListObjects)
+SEMMAP_UNARY(RemoveObject)
+SEMMAP_UNARY(FindObjects)
+SEMMAP_UNARY(ObjectsNear)
+SEMMAP_UNARY(RemoveSession)
+SEMMAP_UNARY(RemoveMap)
+#undef SEMMAP_UNARY
+
+grpc::ServerWriteReactor<grpc::ByteBuffer>* MapServiceImpl::GetTrajectory(
+    grpc::CallbackServerContext* context, const Raw* in) {
+  return Stream<v1::GetTrajectoryRequest>(context, in);
 }
 
-grpc::ServerUnaryReactor* MapServiceImpl::ListSessions(grpc::CallbackServerContext* context,
-                                                       const v1::ListSessionsRequest* request,
-                                                       v1::ListSessionsResponse* response) {
-  StatusOr<std::vector<SessionInfo>> sessions = query_->ListSessions(request->map());
-  if (sessions.ok()) {
-    for (const SessionInfo& s : *sessions) ToProto(s, response->add_sessions());
-  }
-  return FinishUnary(context, sessions.status());
+grpc::ServerWriteReactor<grpc::ByteBuffer>* MapServiceImpl::ExportMap(
+    grpc::CallbackServerContext* context, const Raw* in) {
+  return Stream<v1::ExportMapRequest>(context, in);
 }
 
-grpc::ServerWriteReactor<v1::GetTrajectoryResponse>* MapServiceImpl::GetTrajectory(
-    grpc::CallbackServerContext*, const v1::GetTrajectoryRequest* request) {
-  using Reactor = MessageStreamReactor<v1::GetTrajectoryResponse>;
-  StatusOr<std::vector<TrajectoryPose>> poses =
-      query_->GetTrajectory(request->map(), request->session(), request->keyframes_only());
-  if (!poses.ok()) return new Reactor(ToGrpcStatus(poses.status()));
+Status MapServiceImpl::Answer(grpc::CallbackServerContext*, const v1::ListMapsRequest&,
+                              v1::ListMapsResponse* response) {
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<MapInfo> maps, query_->ListMaps());
+  for (const MapInfo& map : maps) ToProto(map, response->add_maps());
+  return OkStatus();
+}
+
+Status MapServiceImpl::Answer(grpc::CallbackServerContext*, const v1::ListSessionsRequest& request,
+                              v1::ListSessionsResponse* response) {
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<SessionInfo> sessions, query_->ListSessions(request.map()));
+  for (const SessionInfo& s : sessions) ToProto(s, response->add_sessions());
+  return OkStatus();
+}
+
+StatusOr<std::vector<v1::GetTrajectoryResponse>> MapServiceImpl::Answer(
+    grpc::CallbackServerContext*, const v1::GetTrajectoryRequest& request) {
+  SEMMAP_ASSIGN_OR_RETURN(
+      std::vector<TrajectoryPose> poses,
+      query_->GetTrajectory(request.map(), request.session(), request.keyframes_only()));
   std::vector<v1::GetTrajectoryResponse> chunks;
-  for (size_t i = 0; i < poses->size(); ++i) {
+  for (size_t i = 0; i < poses.size(); ++i) {
     if (i % kPosesPerChunk == 0) chunks.emplace_back();
-    ToProto((*poses)[i], chunks.back().add_poses());
+    ToProto(poses[i], chunks.back().add_poses());
   }
-  return new Reactor(std::move(chunks));
+  return chunks;
 }
 
-grpc::ServerWriteReactor<v1::ExportMapResponse>* MapServiceImpl::ExportMap(
-    grpc::CallbackServerContext*, const v1::ExportMapRequest* request) {
-  using Reactor = MessageStreamReactor<v1::ExportMapResponse>;
-  const ExportRequest export_request = FromProto(*request);
-  StatusOr<ExportResult> result = query_->ExportMap(export_request);
-  if (!result.ok()) return new Reactor(ToGrpcStatus(result.status()));
+StatusOr<std::vector<v1::ExportMapResponse>> MapServiceImpl::Answer(
+    grpc::CallbackServerContext*, const v1::ExportMapRequest& request) {
+  SEMMAP_ASSIGN_OR_RETURN(ExportResult result, query_->ExportMap(FromProto(request)));
   std::vector<v1::ExportMapResponse> messages;
   v1::ExportHeader* header = messages.emplace_back().mutable_header();
-  header->set_format(result->format);
-  header->set_media_type(result->media_type);
-  header->set_total_bytes(result->bytes.size());
-  header->mutable_layer_origin()->set_x(result->layer_origin.x());
-  header->mutable_layer_origin()->set_y(result->layer_origin.y());
-  header->mutable_layer_origin()->set_z(result->layer_origin.z());
-  for (size_t offset = 0; offset < result->bytes.size(); offset += kExportChunkBytes) {
-    messages.emplace_back().set_chunk(result->bytes.substr(offset, kExportChunkBytes));
+  header->set_format(result.format);
+  header->set_media_type(result.media_type);
+  header->set_total_bytes(result.bytes.size());
+  header->mutable_layer_origin()->set_x(result.layer_origin.x());
+  header->mutable_layer_origin()->set_y(result.layer_origin.y());
+  header->mutable_layer_origin()->set_z(result.layer_origin.z());
+  for (size_t offset = 0; offset < result.bytes.size(); offset += kExportChunkBytes) {
+    messages.emplace_back().set_chunk(result.bytes.substr(offset, kExportChunkBytes));
   }
   v1::ExportTrailer* trailer = messages.emplace_back().mutable_trailer();
-  trailer->set_sha256(result->sha256_hex);
-  trailer->set_total_bytes(result->bytes.size());
-  return new Reactor(std::move(messages));
+  trailer->set_sha256(result.sha256_hex);
+  trailer->set_total_bytes(result.bytes.size());
+  return messages;
 }
 
-grpc::ServerUnaryReactor* MapServiceImpl::RegisterObject(grpc::CallbackServerContext* context,
-                                                         const v1::RegisterObjectRequest* request,
-                                                         v1::RegisterObjectResponse* response) {
-  StatusOr<RegisterObjectInput> input = FromProto(*request);
-  if (!input.ok()) return FinishUnary(context, input.status());
-  StatusOr<ObjectType> type = objects_->Register(*input, ClientStillWaiting(context));
-  if (type.ok()) ToProto(*type, response->mutable_object());
-  return FinishUnary(context, type.status());
+Status MapServiceImpl::Answer(grpc::CallbackServerContext* context,
+                              const v1::RegisterObjectRequest& request,
+                              v1::RegisterObjectResponse* response) {
+  SEMMAP_ASSIGN_OR_RETURN(RegisterObjectInput input, FromProto(request));
+  SEMMAP_ASSIGN_OR_RETURN(ObjectType type, objects_->Register(input, ClientStillWaiting(context)));
+  ToProto(type, response->mutable_object());
+  return OkStatus();
 }
 
-grpc::ServerUnaryReactor* MapServiceImpl::ListObjects(grpc::CallbackServerContext* context,
-                                                      const v1::ListObjectsRequest* request,
-                                                      v1::ListObjectsResponse* response) {
-  StatusOr<std::vector<ObjectType>> types = query_->ListObjectTypes(request->map());
-  if (types.ok()) {
-    for (const ObjectType& t : *types) ToProto(t, response->add_objects());
-  }
-  return FinishUnary(context, types.status());
+Status MapServiceImpl::Answer(grpc::CallbackServerContext*, const v1::ListObjectsRequest& request,
+                              v1::ListObjectsResponse* response) {
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<ObjectType> types, query_->ListObjectTypes(request.map()));
+  for (const ObjectType& t : types) ToProto(t, response->add_objects());
+  return OkStatus();
 }
 
-grpc::ServerUnaryReactor* MapServiceImpl::RemoveObject(grpc::CallbackServerContext* context,
-                                                       const v1::RemoveObjectRequest* request,
-                                                       v1::RemoveObjectResponse*) {
-  return FinishUnary(
-      context, objects_->Remove(request->label(), request->map(), ClientStillWaiting(context)));
+Status MapServiceImpl::Answer(grpc::CallbackServerContext* context,
+                              const v1::RemoveObjectRequest& request, v1::RemoveObjectResponse*) {
+  return objects_->Remove(request.label(), request.map(), ClientStillWaiting(context));
 }
 
-grpc::ServerUnaryReactor* MapServiceImpl::FindObjects(grpc::CallbackServerContext* context,
-                                                      const v1::FindObjectsRequest* request,
-                                                      v1::FindObjectsResponse* response) {
-  StatusOr<std::vector<ObjectInstance>> found =
-      query_->FindObjects(request->label(), request->map());
-  if (found.ok()) {
-    for (const ObjectInstance& o : *found) ToProto(o, response->add_objects());
-  }
-  return FinishUnary(context, found.status());
+Status MapServiceImpl::Answer(grpc::CallbackServerContext*, const v1::FindObjectsRequest& request,
+                              v1::FindObjectsResponse* response) {
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<ObjectInstance> found,
+                          query_->FindObjects(request.label(), request.map()));
+  for (const ObjectInstance& o : found) ToProto(o, response->add_objects());
+  return OkStatus();
 }
 
-grpc::ServerUnaryReactor* MapServiceImpl::ObjectsNear(grpc::CallbackServerContext* context,
-                                                      const v1::ObjectsNearRequest* request,
-                                                      v1::ObjectsNearResponse* response) {
-  const NearQuery near = FromProto(*request);
-  StatusOr<std::vector<ObjectInstance>> found =
-      query_->ObjectsNear(near.map, near.point, near.radius_m, near.label);
-  if (found.ok()) {
-    for (const ObjectInstance& o : *found) ToProto(o, response->add_objects());
-  }
-  return FinishUnary(context, found.status());
+Status MapServiceImpl::Answer(grpc::CallbackServerContext*, const v1::ObjectsNearRequest& request,
+                              v1::ObjectsNearResponse* response) {
+  const NearQuery near = FromProto(request);
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<ObjectInstance> found,
+                          query_->ObjectsNear(near.map, near.point, near.radius_m, near.label));
+  for (const ObjectInstance& o : found) ToProto(o, response->add_objects());
+  return OkStatus();
 }
 
-grpc::ServerUnaryReactor* MapServiceImpl::RemoveSession(grpc::CallbackServerContext* context,
-                                                        const v1::RemoveSessionRequest* request,
-                                                        v1::RemoveSessionResponse* response) {
-  if (request->map().empty() || request->session().empty()) {
-    return FinishUnary(context, InvalidArgumentError("RemoveSession needs a map and a session"));
+Status MapServiceImpl::Answer(grpc::CallbackServerContext* context,
+                              const v1::RemoveSessionRequest& request,
+                              v1::RemoveSessionResponse* response) {
+  if (request.map().empty() || request.session().empty()) {
+    return InvalidArgumentError("RemoveSession needs a map and a session");
   }
-  StatusOr<RemovedCounts> removed =
-      ingest_->RemoveSession(request->map(), request->session(), ClientStillWaiting(context));
-  if (removed.ok()) {
-    response->set_frames(static_cast<uint64_t>(removed->frames));
-    response->set_keyframes(static_cast<uint64_t>(removed->keyframes));
-  }
-  return FinishUnary(context, removed.status());
+  SEMMAP_ASSIGN_OR_RETURN(
+      RemovedCounts removed,
+      ingest_->RemoveSession(request.map(), request.session(), ClientStillWaiting(context)));
+  response->set_frames(static_cast<uint64_t>(removed.frames));
+  response->set_keyframes(static_cast<uint64_t>(removed.keyframes));
+  return OkStatus();
 }
 
-grpc::ServerUnaryReactor* MapServiceImpl::RemoveMap(grpc::CallbackServerContext* context,
-                                                    const v1::RemoveMapRequest* request,
-                                                    v1::RemoveMapResponse* response) {
-  if (request->map().empty()) {
-    return FinishUnary(context, InvalidArgumentError("RemoveMap needs a map"));
-  }
-  StatusOr<RemovedCounts> removed = ingest_->RemoveMap(request->map(), ClientStillWaiting(context));
-  if (removed.ok()) {
-    objects_->ForgetMap(removed->map_id);
-    response->set_sessions(static_cast<uint64_t>(removed->sessions));
-    response->set_frames(static_cast<uint64_t>(removed->frames));
-    response->set_keyframes(static_cast<uint64_t>(removed->keyframes));
-  }
-  return FinishUnary(context, removed.status());
+Status MapServiceImpl::Answer(grpc::CallbackServerContext* context,
+                              const v1::RemoveMapRequest& request, v1::RemoveMapResponse* response) {
+  if (request.map().empty()) return InvalidArgumentError("RemoveMap needs a map");
+  SEMMAP_ASSIGN_OR_RETURN(RemovedCounts removed,
+                          ingest_->RemoveMap(request.map(), ClientStillWaiting(context)));
+  objects_->ForgetMap(removed.map_id);
+  response->set_sessions(static_cast<uint64_t>(removed.sessions));
+  response->set_frames(static_cast<uint64_t>(removed.frames));
+  response->set_keyframes(static_cast<uint64_t>(removed.keyframes));
+  return OkStatus();
 }
 
 }  // namespace semmap

@@ -1,6 +1,15 @@
 // semmap.v1.MapService on gRPC's callback API: one small handler per RPC over the ingest
 // manager and the query interface.
+//
+// Every method is registered raw (byte buffers) and parses its request itself
+// (wire_parsing.h): gRPC's own parsing answers a unary request that does not parse with
+// UNIMPLEMENTED and no message, and takes a stream message that does not parse for the client's
+// half-close. Here both are INVALID_ARGUMENT naming the message.
 #pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <vector>
 
 #include "common/map_query.h"
 #include "semmap/v1/service.grpc.pb.h"
@@ -9,61 +18,79 @@
 
 namespace semmap {
 
-// Every method on the callback API; Ingest raw (byte buffers) so that a message that does not
-// parse is an error the stream reports, not a silent half-close (see IngestReactor).
 using MapServiceBase = v1::MapService::WithRawCallbackMethod_Ingest<
-    v1::MapService::WithCallbackMethod_ListMaps<v1::MapService::WithCallbackMethod_ListSessions<
-        v1::MapService::WithCallbackMethod_GetTrajectory<
-            v1::MapService::WithCallbackMethod_ExportMap<
-                v1::MapService::WithCallbackMethod_RegisterObject<
-                    v1::MapService::WithCallbackMethod_ListObjects<
-                        v1::MapService::WithCallbackMethod_RemoveObject<
-                            v1::MapService::WithCallbackMethod_FindObjects<
-                                v1::MapService::WithCallbackMethod_ObjectsNear<
-                                    v1::MapService::WithCallbackMethod_RemoveSession<
-                                        v1::MapService::WithCallbackMethod_RemoveMap<
-                                            v1::MapService::Service>>>>>>>>>>>>;
+    v1::MapService::WithRawCallbackMethod_ListMaps<
+        v1::MapService::WithRawCallbackMethod_ListSessions<
+            v1::MapService::WithRawCallbackMethod_GetTrajectory<
+                v1::MapService::WithRawCallbackMethod_ExportMap<
+                    v1::MapService::WithRawCallbackMethod_RegisterObject<
+                        v1::MapService::WithRawCallbackMethod_ListObjects<
+                            v1::MapService::WithRawCallbackMethod_RemoveObject<
+                                v1::MapService::WithRawCallbackMethod_FindObjects<
+                                    v1::MapService::WithRawCallbackMethod_ObjectsNear<
+                                        v1::MapService::WithRawCallbackMethod_RemoveSession<
+                                            v1::MapService::WithRawCallbackMethod_RemoveMap<
+                                                v1::MapService::Service>>>>>>>>>>>>;
 
 class MapServiceImpl final : public MapServiceBase {
  public:
   MapServiceImpl(IngestManager* ingest, MapQueryInterface* query, ObjectCatalog* objects)
       : ingest_(ingest), query_(query), objects_(objects) {}
 
-  grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* Ingest(
-      grpc::CallbackServerContext* context) override;
-  grpc::ServerUnaryReactor* ListMaps(grpc::CallbackServerContext* context,
-                                     const v1::ListMapsRequest* request,
-                                     v1::ListMapsResponse* response) override;
-  grpc::ServerUnaryReactor* ListSessions(grpc::CallbackServerContext* context,
-                                         const v1::ListSessionsRequest* request,
-                                         v1::ListSessionsResponse* response) override;
-  grpc::ServerWriteReactor<v1::GetTrajectoryResponse>* GetTrajectory(
-      grpc::CallbackServerContext* context, const v1::GetTrajectoryRequest* request) override;
-  grpc::ServerWriteReactor<v1::ExportMapResponse>* ExportMap(
-      grpc::CallbackServerContext* context, const v1::ExportMapRequest* request) override;
-  grpc::ServerUnaryReactor* RegisterObject(grpc::CallbackServerContext* context,
-                                           const v1::RegisterObjectRequest* request,
-                                           v1::RegisterObjectResponse* response) override;
-  grpc::ServerUnaryReactor* ListObjects(grpc::CallbackServerContext* context,
-                                        const v1::ListObjectsRequest* request,
-                                        v1::ListObjectsResponse* response) override;
-  grpc::ServerUnaryReactor* RemoveObject(grpc::CallbackServerContext* context,
-                                         const v1::RemoveObjectRequest* request,
-                                         v1::RemoveObjectResponse* response) override;
-  grpc::ServerUnaryReactor* FindObjects(grpc::CallbackServerContext* context,
-                                        const v1::FindObjectsRequest* request,
-                                        v1::FindObjectsResponse* response) override;
-  grpc::ServerUnaryReactor* ObjectsNear(grpc::CallbackServerContext* context,
-                                        const v1::ObjectsNearRequest* request,
-                                        v1::ObjectsNearResponse* response) override;
-  grpc::ServerUnaryReactor* RemoveSession(grpc::CallbackServerContext* context,
-                                          const v1::RemoveSessionRequest* request,
-                                          v1::RemoveSessionResponse* response) override;
-  grpc::ServerUnaryReactor* RemoveMap(grpc::CallbackServerContext* context,
-                                      const v1::RemoveMapRequest* request,
-                                      v1::RemoveMapResponse* response) override;
+  using Raw = grpc::ByteBuffer;
+  grpc::ServerBidiReactor<Raw, Raw>* Ingest(grpc::CallbackServerContext* context) override;
+  grpc::ServerUnaryReactor* ListMaps(grpc::CallbackServerContext* c, const Raw* in,
+                                     Raw* out) override;
+  grpc::ServerUnaryReactor* ListSessions(grpc::CallbackServerContext* c, const Raw* in,
+                                         Raw* out) override;
+  grpc::ServerWriteReactor<Raw>* GetTrajectory(grpc::CallbackServerContext* c,
+                                               const Raw* in) override;
+  grpc::ServerWriteReactor<Raw>* ExportMap(grpc::CallbackServerContext* c, const Raw* in) override;
+  grpc::ServerUnaryReactor* RegisterObject(grpc::CallbackServerContext* c, const Raw* in,
+                                           Raw* out) override;
+  grpc::ServerUnaryReactor* ListObjects(grpc::CallbackServerContext* c, const Raw* in,
+                                        Raw* out) override;
+  grpc::ServerUnaryReactor* RemoveObject(grpc::CallbackServerContext* c, const Raw* in,
+                                         Raw* out) override;
+  grpc::ServerUnaryReactor* FindObjects(grpc::CallbackServerContext* c, const Raw* in,
+                                        Raw* out) override;
+  grpc::ServerUnaryReactor* ObjectsNear(grpc::CallbackServerContext* c, const Raw* in,
+                                        Raw* out) override;
+  grpc::ServerUnaryReactor* RemoveSession(grpc::CallbackServerContext* c, const Raw* in,
+                                          Raw* out) override;
+  grpc::ServerUnaryReactor* RemoveMap(grpc::CallbackServerContext* c, const Raw* in,
+                                      Raw* out) override;
 
  private:
+  // The handlers, one per request type; Unary / Stream parse, call them and serialise.
+  Status Answer(grpc::CallbackServerContext* c, const v1::ListMapsRequest& in,
+                v1::ListMapsResponse* out);
+  Status Answer(grpc::CallbackServerContext* c, const v1::ListSessionsRequest& in,
+                v1::ListSessionsResponse* out);
+  StatusOr<std::vector<v1::GetTrajectoryResponse>> Answer(grpc::CallbackServerContext* c,
+                                                          const v1::GetTrajectoryRequest& in);
+  StatusOr<std::vector<v1::ExportMapResponse>> Answer(grpc::CallbackServerContext* c,
+                                                      const v1::ExportMapRequest& in);
+  Status Answer(grpc::CallbackServerContext* c, const v1::RegisterObjectRequest& in,
+                v1::RegisterObjectResponse* out);
+  Status Answer(grpc::CallbackServerContext* c, const v1::ListObjectsRequest& in,
+                v1::ListObjectsResponse* out);
+  Status Answer(grpc::CallbackServerContext* c, const v1::RemoveObjectRequest& in,
+                v1::RemoveObjectResponse* out);
+  Status Answer(grpc::CallbackServerContext* c, const v1::FindObjectsRequest& in,
+                v1::FindObjectsResponse* out);
+  Status Answer(grpc::CallbackServerContext* c, const v1::ObjectsNearRequest& in,
+                v1::ObjectsNearResponse* out);
+  Status Answer(grpc::CallbackServerContext* c, const v1::RemoveSessionRequest& in,
+                v1::RemoveSessionResponse* out);
+  Status Answer(grpc::CallbackServerContext* c, const v1::RemoveMapRequest& in,
+                v1::RemoveMapResponse* out);
+
+  template <typename Request, typename Response>
+  grpc::ServerUnaryReactor* Unary(grpc::CallbackServerContext* context, const Raw* in, Raw* out);
+  template <typename Request>
+  grpc::ServerWriteReactor<Raw>* Stream(grpc::CallbackServerContext* context, const Raw* in);
+
   IngestManager* ingest_;
   MapQueryInterface* query_;
   ObjectCatalog* objects_;

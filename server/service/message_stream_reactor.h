@@ -1,5 +1,6 @@
 // Server-streaming reactor that writes a prepared list of messages one by one, then finishes.
-// Queries build their answer up front (bounded by the store), so streaming is just pacing.
+// Queries build their answer up front (bounded by the store), so streaming is just pacing. The
+// methods are raw (byte buffers, see wire_parsing.h): the messages are serialised here.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -7,19 +8,30 @@
 #include <utility>
 #include <vector>
 
+#include "rpc/conversions.h"
+#include "server/service/wire_parsing.h"
+
 namespace semmap {
 
-template <typename Response>
-class MessageStreamReactor final : public grpc::ServerWriteReactor<Response> {
+class MessageStreamReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffer> {
  public:
-  explicit MessageStreamReactor(std::vector<Response> messages) : messages_(std::move(messages)) {
+  template <typename Response>
+  explicit MessageStreamReactor(const std::vector<Response>& messages) {
+    buffers_.reserve(messages.size());
+    for (const Response& message : messages) {
+      const Status serialized = SerializeWire(message, &buffers_.emplace_back());
+      if (!serialized.ok()) {
+        Finish(ToGrpcStatus(serialized));
+        return;
+      }
+    }
     Next();
   }
-  explicit MessageStreamReactor(const grpc::Status& error) { this->Finish(error); }
+  explicit MessageStreamReactor(const grpc::Status& error) { Finish(error); }
 
   void OnWriteDone(bool ok) override {
     if (!ok) {
-      this->Finish(grpc::Status(grpc::StatusCode::CANCELLED, "client stopped reading"));
+      Finish(grpc::Status(grpc::StatusCode::CANCELLED, "client stopped reading"));
       return;
     }
     Next();
@@ -28,14 +40,14 @@ class MessageStreamReactor final : public grpc::ServerWriteReactor<Response> {
 
  private:
   void Next() {
-    if (next_ < messages_.size()) {
-      this->StartWrite(&messages_[next_++]);
+    if (next_ < buffers_.size()) {
+      StartWrite(&buffers_[next_++]);
     } else {
-      this->Finish(grpc::Status::OK);
+      Finish(grpc::Status::OK);
     }
   }
 
-  std::vector<Response> messages_;
+  std::vector<grpc::ByteBuffer> buffers_;
   size_t next_ = 0;
 };
 

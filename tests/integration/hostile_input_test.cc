@@ -531,5 +531,34 @@ TEST_F(HostileInputTest, ACallPastItsDeadlineTakesNoEffect) {
   EXPECT_EQ(client_->ListObjectTypes("")->size(), 1u);
 }
 
+// Unary requests that do not parse are refused and change nothing (gRPC itself answered them
+// UNIMPLEMENTED with an empty message).
+TEST_F(HostileInputTest, UnparseableUnaryRequestsAreRefused) {
+  grpc::GenericStub stub(channel_);
+  grpc::CompletionQueue cq;
+  const std::string garbage("\x0a\xff\xff\xff\xff\x0f truncated", 16);
+  grpc::ClientContext context;
+  grpc::Slice slice(garbage);
+  grpc::ByteBuffer request(&slice, 1), response;
+  auto call =
+      stub.PrepareUnaryCall(&context, "/semmap.v1.MapService/RegisterObject", request, &cq);
+  call->StartCall();
+  grpc::Status status;
+  call->Finish(&response, &status, this);
+  void* tag = nullptr;
+  bool ok = false;
+  ASSERT_TRUE(cq.Next(&tag, &ok));
+  EXPECT_FALSE(status.ok());
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(status.error_message().find(
+                "the request (16 bytes) is not a valid semmap.v1.RegisterObjectRequest"),
+            std::string::npos)
+      << status.error_message();
+  cq.Shutdown();
+  while (cq.Next(&tag, &ok)) {
+  }
+  EXPECT_TRUE(client_->ListObjectTypes("")->empty());
+}
+
 }  // namespace
 }  // namespace semmap
