@@ -1,7 +1,7 @@
 # SEMMAP_FUZZ=ON (clang only): every target below this point is compiled with libFuzzer's
 # coverage instrumentation plus ASan and UBSan (any UB aborts, so the fuzzer sees it as a
-# crash), and tests/fuzz builds one fuzz_<name> per tests/fuzz/<name>_fuzz.cc, all under the
-# custom target fuzz_all. `cmake --preset fuzz` configures this; scripts/fuzz.sh runs it.
+# crash), and tests/fuzz builds fuzz_<name> from tests/fuzz/<name>_fuzz.cc per registered target,
+# all under fuzz_all. `cmake --preset fuzz` configures this; scripts/fuzz.sh runs it.
 option(SEMMAP_FUZZ "Build the libFuzzer targets (clang, ASan + UBSan)" OFF)
 if(SEMMAP_FUZZ)
   if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")

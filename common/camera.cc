@@ -17,6 +17,12 @@ Status ValidateCalibration(const CameraCalibration& c) {
     return InvalidArgumentError("camera size " + std::to_string(c.width) + "x" +
                                 std::to_string(c.height) + " is not in 1..16384");
   }
+  // Every frame of the session is decoded at this size: the cap bounds what one frame costs.
+  if (static_cast<int64_t>(c.width) * c.height > kMaxCameraPixels) {
+    return InvalidArgumentError("camera size " + std::to_string(c.width) + "x" +
+                                std::to_string(c.height) + " has more than " +
+                                std::to_string(kMaxCameraPixels / 1000000) + " megapixels");
+  }
   for (double v : {c.fx, c.fy, c.cx, c.cy}) {
     if (!std::isfinite(v)) return InvalidArgumentError("camera intrinsics have a non-finite value");
   }

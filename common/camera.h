@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 
 #include "common/status.h"
 
@@ -15,6 +16,9 @@ struct CameraCalibration {
 
   bool HasDistortion() const;
 };
+
+// Largest camera a session may declare (8K video is 33 MP; a 48 MP phone sensor fits).
+inline constexpr int64_t kMaxCameraPixels = 50'000'000;
 
 // Rejects NaN/inf, non-positive size or focal length, and principal points far outside the image.
 Status ValidateCalibration(const CameraCalibration& camera);

@@ -1,6 +1,7 @@
 #include "rpc/conversions.h"
 
 #include <cmath>
+#include <limits>
 #include <string>
 
 namespace semmap {
@@ -26,8 +27,27 @@ void ToProto(int64_t stamp_ns, google::protobuf::Timestamp* out) {
   out->set_nanos(static_cast<int32_t>(nanos));
 }
 
-int64_t FromProto(const google::protobuf::Timestamp& stamp) {
+StatusOr<int64_t> StampNsFromProto(const google::protobuf::Timestamp& stamp) {
+  if (stamp.nanos() < 0 || stamp.nanos() > 999'999'999) {
+    return InvalidArgumentError("timestamp nanos " + std::to_string(stamp.nanos()) +
+                                " is not in 0..999999999");
+  }
+  // int64 nanoseconds reach from 1677-09-21 to 2262-04-11.
+  constexpr int64_t kMaxSeconds = std::numeric_limits<int64_t>::max() / 1'000'000'000 - 1;
+  if (stamp.seconds() < -kMaxSeconds || stamp.seconds() > kMaxSeconds) {
+    return InvalidArgumentError("timestamp " + std::to_string(stamp.seconds()) +
+                                " s is outside what nanoseconds since 1970 in 64 bits can hold "
+                                "(years 1677..2262)");
+  }
   return stamp.seconds() * 1'000'000'000 + stamp.nanos();
+}
+
+int64_t FromProto(const google::protobuf::Timestamp& stamp) {
+  // What a peer sends is not trusted to be in range: clamped, never undefined.
+  StatusOr<int64_t> ns = StampNsFromProto(stamp);
+  if (ns.ok()) return *ns;
+  return stamp.seconds() < 0 ? std::numeric_limits<int64_t>::min()
+                             : std::numeric_limits<int64_t>::max();
 }
 
 void ToProto(const Eigen::Isometry3d& T, v1::Pose* out) {

@@ -16,6 +16,9 @@ grpc::Status ToGrpcStatus(const Status& status);
 Status FromGrpcStatus(const grpc::Status& status);
 
 void ToProto(int64_t stamp_ns, google::protobuf::Timestamp* out);
+// INVALID_ARGUMENT for nanos outside 0..999999999 or a time int64 nanoseconds cannot hold.
+StatusOr<int64_t> StampNsFromProto(const google::protobuf::Timestamp& stamp);
+// The same, clamped to the int64 range instead of failing (for stamps a server sent).
 int64_t FromProto(const google::protobuf::Timestamp& stamp);
 
 void ToProto(const Eigen::Isometry3d& T, v1::Pose* out);

@@ -236,6 +236,8 @@ Status IngestSession::HandleStart(const IngestStartRequest& start) {
     return InternalError("could not generate a unique session name");
   });
   SEMMAP_RETURN_IF_ERROR(status);
+  // Visible to administrative removals before the map's pipelines are taken (ingest_manager).
+  map_id_.store(created.map_id);
   if (pipelines_) {
     const bool visual = *start.mode == SessionMode::kRgbd;
     SEMMAP_ASSIGN_OR_RETURN(MapPipelines pipelines, pipelines_(created, visual));
@@ -250,7 +252,6 @@ Status IngestSession::HandleStart(const IngestStartRequest& start) {
     });
   }
   session_ = created;
-  map_id_.store(created.map_id);
   sink_->OnStarted(*session_);
   return OkStatus();
 }

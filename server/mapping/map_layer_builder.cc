@@ -154,12 +154,28 @@ void MapLayerBuilder::Run(bool restore) {
 }
 
 void MapLayerBuilder::Restore() {
+  // Damage in what is stored (a keyframe image, the origin) is logged and worked around: it must
+  // not fail the sessions that stream into the map afterwards.
   std::vector<StoredKeyframeCloud> stored;
+  size_t damaged = 0;
   const Status status = writer_->RunSync([&](MapStore& store) -> Status {
-    SEMMAP_ASSIGN_OR_RETURN(origin_, ReadLayerOrigin(store, map_name_));
-    SEMMAP_ASSIGN_OR_RETURN(stored, LoadKeyframeClouds(store, map_name_, "", options_.occupancy));
+    StatusOr<std::optional<Eigen::Vector3d>> origin = ReadLayerOrigin(store, map_name_);
+    if (!origin.ok() && origin.status().code() == StatusCode::kDataLoss) {
+      std::fprintf(stderr, "semmapd: map '%s' layers: %s; using the first keyframe's origin\n",
+                   map_name_.c_str(), origin.status().ToString().c_str());
+      origin = FirstKeyframeLayerOrigin(store, map_name_);
+    }
+    SEMMAP_ASSIGN_OR_RETURN(origin_, std::move(origin));
+    SEMMAP_ASSIGN_OR_RETURN(stored,
+                            LoadKeyframeClouds(store, map_name_, "", options_.occupancy, &damaged));
     return OkStatus();
   });
+  if (damaged > 0) {
+    std::fprintf(stderr,
+                 "semmapd: map '%s' layers: %zu stored keyframe(s) have damaged images and are "
+                 "left out of the restored layers\n",
+                 map_name_.c_str(), damaged);
+  }
   if (!status.ok()) {
     RecordError(status.WithContext("restoring from stored keyframes"));
     return;

@@ -43,6 +43,11 @@ StatusOr<std::optional<Eigen::Vector3d>> ReadLayerOrigin(MapStore& store,
     return std::optional<Eigen::Vector3d>(origin);
   }
   if (blob.status().code() != StatusCode::kNotFound) return blob.status();
+  return FirstKeyframeLayerOrigin(store, map_name);
+}
+
+StatusOr<std::optional<Eigen::Vector3d>> FirstKeyframeLayerOrigin(MapStore& store,
+                                                                  const std::string& map_name) {
   SEMMAP_ASSIGN_OR_RETURN(std::vector<SessionInfo> sessions, store.ListSessions(map_name));
   for (const SessionInfo& session : sessions) {  // in creation order
     SEMMAP_ASSIGN_OR_RETURN(std::vector<KeyframeRecord> keyframes,
@@ -58,7 +63,8 @@ StatusOr<std::optional<Eigen::Vector3d>> ReadLayerOrigin(MapStore& store,
 StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(MapStore& store,
                                                               const std::string& map_name,
                                                               const std::string& session_name,
-                                                              const OccupancyMapOptions& options) {
+                                                              const OccupancyMapOptions& options,
+                                                              size_t* damaged) {
   SEMMAP_ASSIGN_OR_RETURN(std::vector<SessionInfo> sessions, store.ListSessions(map_name));
   std::vector<StoredKeyframeCloud> out;
   bool matched = session_name.empty();
@@ -69,10 +75,14 @@ StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(MapStore& store,
                             store.ListKeyframes(session.id, /*with_images=*/true));
     for (const KeyframeRecord& record : keyframes) {
       if (record.depth.empty()) continue;
-      SEMMAP_ASSIGN_OR_RETURN(KeyframeCloud cloud,
-                              KeyframeCloudFromRecord(record, session.camera, options));
+      StatusOr<KeyframeCloud> cloud = KeyframeCloudFromRecord(record, session.camera, options);
+      if (!cloud.ok() && damaged != nullptr && cloud.status().code() == StatusCode::kDataLoss) {
+        ++*damaged;
+        continue;
+      }
+      SEMMAP_RETURN_IF_ERROR(cloud.status());
       out.push_back({session.id, record.seq, record.T_world_camera,
-                     std::make_shared<const KeyframeCloud>(std::move(cloud))});
+                     std::make_shared<const KeyframeCloud>(std::move(cloud).value())});
     }
   }
   if (!matched) {

@@ -35,12 +35,18 @@ StatusOr<KeyframeCloud> KeyframeCloudFromRecord(const KeyframeRecord& record,
 // keyframe gives; nullopt for a map without keyframes. DATA_LOSS for a damaged stored origin.
 StatusOr<std::optional<Eigen::Vector3d>> ReadLayerOrigin(MapStore& store,
                                                          const std::string& map_name);
+// The origin the map's first stored keyframe gives (nullopt without keyframes).
+StatusOr<std::optional<Eigen::Vector3d>> FirstKeyframeLayerOrigin(MapStore& store,
+                                                                  const std::string& map_name);
 
 // Every keyframe with depth of the map's sessions (only `session_name` when not empty; NOT_FOUND
-// for an unknown one), in session then seq order. Keyframes without depth are skipped.
+// for an unknown one), in session then seq order. Keyframes without depth are skipped. A
+// keyframe whose stored images do not decode is DATA_LOSS, or, with `damaged` given, skipped and
+// counted there (a restore must not fail a map for one damaged keyframe).
 StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(MapStore& store,
                                                               const std::string& map_name,
                                                               const std::string& session_name,
-                                                              const OccupancyMapOptions& options);
+                                                              const OccupancyMapOptions& options,
+                                                              size_t* damaged = nullptr);
 
 }  // namespace semmap

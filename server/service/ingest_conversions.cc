@@ -44,7 +44,13 @@ IngestMessage ConvertStart(const v1::IngestStart& in) {
 IngestMessage ConvertFrame(v1::Frame* in) {
   IngestFrame frame;
   frame.seq = in->seq();
-  if (in->has_timestamp()) frame.stamp_ns = FromProto(in->timestamp());
+  if (in->has_timestamp()) {
+    StatusOr<int64_t> stamp = StampNsFromProto(in->timestamp());
+    if (!stamp.ok()) {
+      return IngestInvalid{stamp.status().WithContext("frame seq " + std::to_string(frame.seq))};
+    }
+    frame.stamp_ns = *stamp;
+  }
   if (in->has_colour()) {
     if (in->colour().kind_case() == v1::Image::KIND_NOT_SET) {
       return IngestInvalid{InvalidArgumentError("frame seq " + std::to_string(frame.seq) +
@@ -73,8 +79,7 @@ std::string MessageName(uint64_t index) {
 }
 
 IngestMessage Unparseable(const Status& status) {
-  return IngestInvalid{
-      Status(status.code(), status.message() + "; nothing from it on was read")};
+  return IngestInvalid{Status(status.code(), status.message() + "; nothing from it on was read")};
 }
 
 }  // namespace

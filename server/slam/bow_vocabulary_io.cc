@@ -48,6 +48,7 @@ class Reader {
     return std::bit_cast<double>(v);
   }
   void Bytes(uint8_t* out, size_t n) {
+    if (n == 0) return;  // `out` may be null then (an empty vector's data()): memcpy's UB
     std::memcpy(out, bytes_.data() + pos_, n);
     pos_ += n;
   }

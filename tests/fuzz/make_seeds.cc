@@ -4,6 +4,7 @@
 //   cloud_pcd       binary PCDs of a filtered cloud, a few points, no points
 //   bow_vocabulary  vocabularies trained on random descriptors (a few shapes)
 //   feature_codec   keyframe features: ORB-like, SIFT-like (float), without descriptors, none
+//   image_decode, ingest_request, rpc_requests: make_wire_seeds.cc
 #include <octomap/OcTree.h>
 
 #include <Eigen/Geometry>
@@ -21,6 +22,7 @@
 #include "server/mapping/point_cloud_map.h"
 #include "server/slam/bow_vocabulary.h"
 #include "server/slam/feature_codec.h"
+#include "tests/fuzz/make_wire_seeds.h"
 
 namespace semmap {
 namespace {
@@ -173,5 +175,8 @@ int main(int argc, char** argv) {
   ok &= semmap::CloudSeeds(out / "cloud_pcd");
   ok &= semmap::VocabularySeeds(out / "bow_vocabulary");
   ok &= semmap::FeatureSeeds(out / "feature_codec");
+  ok &= semmap::fuzz::ImageSeeds(out / "image_decode");
+  ok &= semmap::fuzz::IngestSeeds(out / "ingest_request");
+  ok &= semmap::fuzz::RequestSeeds(out / "rpc_requests");
   return ok ? 0 : 1;
 }

@@ -360,6 +360,19 @@ TEST_F(HostileInputTest, SeqAbove2To63IsRefusedBeforeItsAck) {
   EXPECT_EQ(StoredFrames("seq"), 2u);
 }
 
+// Found by fuzz_ingest_request: seconds * 1e9 overflowed int64 for times past 2262.
+TEST_F(HostileInputTest, TimestampsBeyondInt64NanosecondsAreRefused) {
+  v1::Frame frame = MakeFrame(2, At(0.4));
+  frame.mutable_timestamp()->set_seconds(18521711057);
+  const Status status = Stream("far-future", 2, std::move(frame));
+  ExpectStatus(status, StatusCode::kInvalidArgument, "frame seq 2: timestamp 18521711057 s");
+  EXPECT_EQ(StoredFrames("far-future"), 2u);
+  v1::Frame bad_nanos = MakeFrame(2, At(0.4));
+  bad_nanos.mutable_timestamp()->set_nanos(-1);
+  ExpectStatus(Stream("bad-nanos", 2, std::move(bad_nanos)), StatusCode::kInvalidArgument,
+               "timestamp nanos -1 is not in 0..999999999");
+}
+
 // 5. The first half of a PNG was accepted and stored (only the first rows real).
 TEST_F(HostileInputTest, TruncatedImagesAreInvalidArgument) {
   const cv::Mat bgr = testing::TexturedImage(160, 120, 3);
@@ -540,8 +553,7 @@ TEST_F(HostileInputTest, UnparseableUnaryRequestsAreRefused) {
   grpc::ClientContext context;
   grpc::Slice slice(garbage);
   grpc::ByteBuffer request(&slice, 1), response;
-  auto call =
-      stub.PrepareUnaryCall(&context, "/semmap.v1.MapService/RegisterObject", request, &cq);
+  auto call = stub.PrepareUnaryCall(&context, "/semmap.v1.MapService/RegisterObject", request, &cq);
   call->StartCall();
   grpc::Status status;
   call->Finish(&response, &status, this);

@@ -396,6 +396,21 @@ TEST_F(CorruptFileTest, SizeThatWrapsPast2To64IsDataLoss) {
       << s.message();
 }
 
+// Found by fuzz_bow_vocabulary (UBSan): a header with no nodes (or 0-byte descriptors) copied
+// its 0 centre bytes with memcpy into an empty vector's data(), a null pointer.
+TEST_F(CorruptFileTest, NoCentreBytesIsDataLoss) {
+  std::string body = bytes_.substr(0, 40);
+  PutU32At(body, 24, 0);  // nodes
+  PutU32At(body, 28, 0);  // words
+  EXPECT_EQ(BowVocabulary::Deserialize(Sealed(body)).status().code(), StatusCode::kDataLoss);
+  body = bytes_.substr(0, 40);
+  PutU32At(body, 20, 0);  // descriptor bytes
+  PutU32At(body, 24, 2);  // nodes
+  PutU32At(body, 28, 1);  // words
+  body += std::string(2 * 8 + 8, '\0');
+  EXPECT_EQ(BowVocabulary::Deserialize(Sealed(body)).status().code(), StatusCode::kDataLoss);
+}
+
 // Found by fuzz_bow_vocabulary (a resealed file): word weights of 1e210 and 2e-319 loaded, and
 // Transform gave a BowVector whose normalised weights were 0, not "positive, summing to 1".
 // Weights are idf = log(N / n_w) in [0, log N]; others are damage.

@@ -1,0 +1,12 @@
+// Seed writers for the image and wire-message fuzz targets (make_wire_seeds.cc).
+#pragma once
+
+#include <filesystem>
+
+namespace semmap::fuzz {
+
+bool ImageSeeds(const std::filesystem::path& dir);    // image_decode
+bool IngestSeeds(const std::filesystem::path& dir);   // ingest_request
+bool RequestSeeds(const std::filesystem::path& dir);  // rpc_requests
+
+}  // namespace semmap::fuzz
