@@ -177,6 +177,25 @@ Status IngestManager::RebuildDerived(int64_t map_id, const std::string& map_name
   return OkStatus();
 }
 
+StatusOr<RemovedCounts> IngestManager::RemoveWhileChanging(
+    int64_t map_id, const std::string& map, const CancelCheck& cancelled,
+    const std::function<StatusOr<RemovedCounts>(MapStore&)>& remove, bool rebuild) {
+  SEMMAP_RETURN_IF_ERROR(BeginMapChange(map_id, map));
+  RemovedCounts counts;
+  Status status = writer_->RunSync([&](MapStore& store) -> Status {
+    SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancelled));
+    SEMMAP_ASSIGN_OR_RETURN(counts, remove(store));
+    return OkStatus();
+  });
+  // Whether or not the removal committed, what is left is rebuilt from the store (a map that
+  // was not removed gets fresh pipelines on its next use).
+  Status rebuilt = rebuild || !status.ok() ? RebuildDerived(map_id, map) : OkStatus();
+  EndMapChange(map_id);
+  SEMMAP_RETURN_IF_ERROR(status);
+  SEMMAP_RETURN_IF_ERROR(rebuilt);
+  return counts;
+}
+
 StatusOr<RemovedCounts> IngestManager::RemoveSession(const std::string& map,
                                                      const std::string& session,
                                                      const CancelCheck& cancelled) {
@@ -185,18 +204,11 @@ StatusOr<RemovedCounts> IngestManager::RemoveSession(const std::string& map,
     SEMMAP_ASSIGN_OR_RETURN(info, store.GetSession(map, session));
     return OkStatus();
   }));
-  SEMMAP_RETURN_IF_ERROR(BeginMapChange(info.map_id, map));
-  RemovedCounts counts;
-  Status status = writer_->RunSync([&](MapStore& store) -> Status {
-    SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancelled));
-    SEMMAP_ASSIGN_OR_RETURN(counts, store.RemoveSession(info.id));
-    return OkStatus();
-  });
-  // Whether or not the removal committed, the map's products are rebuilt from the store.
-  Status rebuilt = RebuildDerived(info.map_id, map);
-  EndMapChange(info.map_id);
-  SEMMAP_RETURN_IF_ERROR(status);
-  SEMMAP_RETURN_IF_ERROR(rebuilt);
+  SEMMAP_ASSIGN_OR_RETURN(
+      RemovedCounts counts,
+      RemoveWhileChanging(
+          info.map_id, map, cancelled,
+          [&](MapStore& store) { return store.RemoveSession(info.id); }, /*rebuild=*/true));
   std::fprintf(stderr,
                "semmapd: removed session '%s' of map '%s' (%lld frames, %lld keyframes); layers "
                "and objects rebuilt\n",
@@ -212,19 +224,11 @@ StatusOr<RemovedCounts> IngestManager::RemoveMap(const std::string& map,
     SEMMAP_ASSIGN_OR_RETURN(info, store.GetMap(map));
     return OkStatus();
   }));
-  SEMMAP_RETURN_IF_ERROR(BeginMapChange(info.id, map));
-  RemovedCounts counts;
-  Status status = writer_->RunSync([&](MapStore& store) -> Status {
-    SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancelled));
-    SEMMAP_ASSIGN_OR_RETURN(counts, store.RemoveMap(info.id));
-    return OkStatus();
-  });
-  if (!status.ok()) {
-    // Nothing was removed: the map keeps working with fresh pipelines on next use.
-    EndMapChange(info.id);
-    return status;
-  }
-  EndMapChange(info.id);
+  SEMMAP_ASSIGN_OR_RETURN(
+      RemovedCounts counts,
+      RemoveWhileChanging(
+          info.id, map, cancelled, [&](MapStore& store) { return store.RemoveMap(info.id); },
+          /*rebuild=*/false));
   std::fprintf(stderr, "semmapd: removed map '%s' (%lld sessions, %lld frames, %lld keyframes)\n",
                map.c_str(), static_cast<long long>(counts.sessions),
                static_cast<long long>(counts.frames), static_cast<long long>(counts.keyframes));

@@ -53,6 +53,10 @@ class IngestManager {
   void EndMapChange(int64_t map_id);
   // Rebuilds a map's layers and object instances from the store (after a session removal).
   Status RebuildDerived(int64_t map_id, const std::string& map_name);
+  // BeginMapChange, `remove` on the writer thread after `cancelled`, the rebuild, EndMapChange.
+  StatusOr<RemovedCounts> RemoveWhileChanging(
+      int64_t map_id, const std::string& map, const CancelCheck& cancelled,
+      const std::function<StatusOr<RemovedCounts>(MapStore&)>& remove, bool rebuild);
 
   StorageWriter* writer_;
   const IngestOptions options_;

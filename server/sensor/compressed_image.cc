@@ -25,6 +25,24 @@ constexpr size_t kMessageBytes = 200;
 // file with thousands of scans costs minutes of CPU. Real encoders write about 10.
 constexpr int kMaxJpegScans = 256;
 
+// The decoded image and a pointer to each of its rows, for the decoders to write into.
+struct Pixels {
+  cv::Mat image;
+  std::vector<unsigned char*> rows;
+};
+StatusOr<Pixels> AllocatePixels(const CompressedImageInfo& info, int cv_type) {
+  Pixels out;
+  try {
+    out.image.create(static_cast<int>(info.height), static_cast<int>(info.width), cv_type);
+    out.rows.resize(info.height);
+  } catch (const std::exception&) {  // std::bad_alloc, or cv::Exception from the allocator
+    return ResourceExhaustedError("out of memory for a decoded " + std::to_string(info.width) +
+                                  "x" + std::to_string(info.height) + " image");
+  }
+  for (uint32_t r = 0; r < info.height; ++r) out.rows[r] = out.image.ptr(static_cast<int>(r));
+  return out;
+}
+
 // ---- PNG ----
 
 struct PngInput {
@@ -171,19 +189,11 @@ StatusOr<cv::Mat> DecodePng(std::string_view bytes, const CompressedImageInfo& i
     }
   }
   png_set_interlace_handling(png);
-  cv::Mat out;
-  std::vector<png_bytep> rows;
-  try {
-    out.create(static_cast<int>(info.height), static_cast<int>(info.width), cv_type);
-    rows.resize(info.height);
-  } catch (const std::exception&) {  // std::bad_alloc, or cv::Exception from the allocator
-    return ResourceExhaustedError("out of memory for the decoded PNG");
-  }
-  for (uint32_t r = 0; r < info.height; ++r) rows[r] = out.ptr<png_byte>(static_cast<int>(r));
-  if (!PngReadRows(reader, rows.data(), static_cast<size_t>(info.width) * bytes_per_pixel)) {
+  SEMMAP_ASSIGN_OR_RETURN(Pixels pixels, AllocatePixels(info, cv_type));
+  if (!PngReadRows(reader, pixels.rows.data(), static_cast<size_t>(info.width) * bytes_per_pixel)) {
     return InvalidArgumentError(std::string("PNG data is damaged: ") + reader.message);
   }
-  return out;
+  return std::move(pixels.image);
 }
 
 // ---- JPEG ----
@@ -300,19 +310,11 @@ StatusOr<cv::Mat> DecodeJpeg(std::string_view bytes, const CompressedImageInfo& 
   } else {
     cinfo.out_color_space = JCS_EXT_BGR;
   }
-  cv::Mat out;
-  std::vector<JSAMPROW> rows;
-  try {
-    out.create(static_cast<int>(info.height), static_cast<int>(info.width), cv_type);
-    rows.resize(info.height);
-  } catch (const std::exception&) {  // std::bad_alloc, or cv::Exception from the allocator
-    return ResourceExhaustedError("out of memory for the decoded JPEG");
-  }
-  for (uint32_t r = 0; r < info.height; ++r) rows[r] = out.ptr<JSAMPLE>(static_cast<int>(r));
-  if (!JpegReadRows(reader, rows.data(), info.height, info.width)) {
+  SEMMAP_ASSIGN_OR_RETURN(Pixels pixels, AllocatePixels(info, cv_type));
+  if (!JpegReadRows(reader, pixels.rows.data(), info.height, info.width)) {
     return InvalidArgumentError(std::string("JPEG data is damaged: ") + reader.message);
   }
-  return out;
+  return std::move(pixels.image);
 }
 
 bool StartsWith(std::string_view bytes, std::string_view prefix) {

@@ -30,10 +30,7 @@ namespace {
 namespace fs = std::filesystem;
 
 bool Write(const fs::path& dir, const std::string& name, const std::string& bytes) {
-  fs::create_directories(dir);
-  std::ofstream out(dir / name, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  return static_cast<bool>(out);
+  return fuzz::WriteSeedFile(dir, name, bytes);
 }
 
 template <typename T>

@@ -19,13 +19,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool Put(const fs::path& dir, const std::string& name, const std::string& bytes) {
-  fs::create_directories(dir);
-  std::ofstream out(dir / name, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  return static_cast<bool>(out);
-}
-
 std::string Encode(const cv::Mat& image, const std::string& ext, std::vector<int> params = {}) {
   std::vector<uchar> buf;
   if (!cv::imencode(ext, image, buf, params)) return {};
@@ -55,6 +48,14 @@ std::string Serialized(const google::protobuf::Message& message) {
 
 }  // namespace
 
+bool WriteSeedFile(const fs::path& dir, const std::string& name, const std::string& bytes) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  std::ofstream out(dir / name, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  return static_cast<bool>(out);
+}
+
 bool ImageSeeds(const fs::path& dir) {
   const cv::Mat bgr = Pattern(24, 16);
   cv::Mat grey, bgra;
@@ -74,8 +75,8 @@ bool ImageSeeds(const fs::path& dir) {
     if (bytes.empty()) return false;
     // Selector 0..127 picks the compressed path and the target (colour, bgr, depth16).
     for (char selector : {'\x00', '\x01', '\x02'}) {
-      ok &= Put(dir, name + "." + std::to_string(static_cast<int>(selector)),
-                std::string(1, selector) + bytes);
+      ok &= WriteSeedFile(dir, name + "." + std::to_string(static_cast<int>(selector)),
+                          std::string(1, selector) + bytes);
     }
   }
   // Raw: selector >= 128 (encoding = selector % 6, own-size camera on odd selector / 6), then
@@ -90,7 +91,7 @@ bool ImageSeeds(const fs::path& dir) {
     std::string bytes(1, static_cast<char>(raw.selector));
     for (uint32_t v : {width, height, step}) bytes.append(reinterpret_cast<const char*>(&v), 4);
     bytes.append(static_cast<size_t>(step) * height, '\x10');
-    ok &= Put(dir, std::string("raw_") + raw.name, bytes);
+    ok &= WriteSeedFile(dir, std::string("raw_") + raw.name, bytes);
   }
   return ok;
 }
@@ -138,11 +139,11 @@ bool IngestSeeds(const fs::path& dir) {
       Encode(Pattern(24, 16), ".jpg"));
   v1::IngestRequest end;
   end.mutable_end();
-  bool ok = Put(dir, "start", Serialized(start));
-  ok &= Put(dir, "frame_raw_depth", Serialized(frame));
-  ok &= Put(dir, "frame_png_depth", Serialized(png_depth));
-  ok &= Put(dir, "frame_jpeg", Serialized(jpeg));
-  ok &= Put(dir, "end", Serialized(end));
+  bool ok = WriteSeedFile(dir, "start", Serialized(start));
+  ok &= WriteSeedFile(dir, "frame_raw_depth", Serialized(frame));
+  ok &= WriteSeedFile(dir, "frame_png_depth", Serialized(png_depth));
+  ok &= WriteSeedFile(dir, "frame_jpeg", Serialized(jpeg));
+  ok &= WriteSeedFile(dir, "end", Serialized(end));
   return ok;
 }
 
@@ -188,8 +189,8 @@ bool RequestSeeds(const fs::path& dir) {
                                                  &pose, &session, &trajectory, &remove};
   bool ok = true;
   for (size_t i = 0; i < std::size(messages); ++i) {
-    ok &= Put(dir, messages[i]->GetTypeName(),
-              std::string(1, static_cast<char>(i)) + Serialized(*messages[i]));
+    ok &= WriteSeedFile(dir, messages[i]->GetTypeName(),
+                        std::string(1, static_cast<char>(i)) + Serialized(*messages[i]));
   }
   return ok;
 }

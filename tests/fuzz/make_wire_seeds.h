@@ -2,8 +2,13 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
 
 namespace semmap::fuzz {
+
+// Writes dir/name (creating dir); false when it cannot.
+bool WriteSeedFile(const std::filesystem::path& dir, const std::string& name,
+                   const std::string& bytes);
 
 bool ImageSeeds(const std::filesystem::path& dir);    // image_decode
 bool IngestSeeds(const std::filesystem::path& dir);   // ingest_request

@@ -116,15 +116,11 @@ class HostileInputTest : public ::testing::Test {
 
   void StartServer() {
     ServerOptions options = options_;
-    options.listen = "127.0.0.1:0";
-    options.data_dir = dir_.path();
     options.vocabulary_path.clear();
-    auto server = SemmapServer::Start(options);
-    ASSERT_TRUE(server.ok()) << server.status().ToString();
-    server_ = std::move(server).value();
-    ClientOptions client_options;
-    client_options.server = server_->address();
-    client_ = std::make_unique<MapClient>(client_options);
+    auto started = testing::StartInProcessServer(options, dir_.path());
+    ASSERT_TRUE(started.ok()) << started.status().ToString();
+    server_ = std::move(started->server);
+    client_ = std::move(started->client);
     channel_ = grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials());
   }
   void RestartServer() {

@@ -21,16 +21,12 @@ class IngestServiceTest : public ::testing::Test {
   void SetUp() override { StartServer(); }
 
   void StartServer(ServerOptions options = {}) {
-    options.listen = "127.0.0.1:0";
-    options.data_dir = dir_.path();
     options.max_message_mb = 4;
     options.ingest.max_frame_bytes = 2u << 20;
-    auto server = SemmapServer::Start(options);
-    ASSERT_TRUE(server.ok()) << server.status().ToString();
-    server_ = std::move(server).value();
-    ClientOptions client_options;
-    client_options.server = server_->address();
-    client_ = std::make_unique<MapClient>(client_options);
+    auto started = testing::StartInProcessServer(options, dir_.path());
+    ASSERT_TRUE(started.ok()) << started.status().ToString();
+    server_ = std::move(started->server);
+    client_ = std::move(started->client);
   }
 
   void RestartServer() {

@@ -6,9 +6,27 @@
 
 #include "client/lib/map_client.h"
 #include "rpc/conversions.h"
+#include "server/semmap_server.h"
 #include "tests/testing/synthetic_frames.h"
 
 namespace semmap::testing {
+
+// semmapd in this process on 127.0.0.1:<any port> over `data_dir`, and a client of it.
+struct InProcessServer {
+  std::unique_ptr<SemmapServer> server;
+  std::unique_ptr<MapClient> client;
+};
+inline StatusOr<InProcessServer> StartInProcessServer(ServerOptions options,
+                                                      const std::string& data_dir) {
+  options.listen = "127.0.0.1:0";
+  options.data_dir = data_dir;
+  InProcessServer out;
+  SEMMAP_ASSIGN_OR_RETURN(out.server, SemmapServer::Start(options));
+  ClientOptions client_options;
+  client_options.server = out.server->address();
+  out.client = std::make_unique<MapClient>(client_options);
+  return out;
+}
 
 inline v1::IngestStart KnownPosesStart(const std::string& map, const std::string& session,
                                        int width = 160, int height = 120) {
