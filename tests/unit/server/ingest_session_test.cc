@@ -69,7 +69,7 @@ class IngestSessionTest : public ::testing::Test {
   IngestFrame Frame(uint64_t seq, double x) {
     IngestFrame frame;
     frame.seq = seq;
-    frame.stamp_ns = static_cast<int64_t>(seq) * 1000;
+    frame.stamp_ns = static_cast<int64_t>(seq % 1'000'000) * 1000;  // any seq, even 2^63
     ImageMessage colour;
     colour.kind = ImageMessage::Kind::kCompressed;
     colour.encoding = "png";
