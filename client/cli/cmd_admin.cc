@@ -1,6 +1,7 @@
 // sessions remove, maps remove: administrative removals, confirmed at a terminal or by --yes.
 #include <unistd.h>
 
+#include <algorithm>
 #include <iostream>
 #include <string>
 
@@ -20,7 +21,8 @@ constexpr char kMapsRemoveUsage[] =
     "  Removes a map with all its sessions, layers and objects. Cannot be undone; asks for\n"
     "  confirmation at a terminal (--yes: do not ask). Refused while a stream ingests into it.\n";
 
-// True when the user confirmed; a closed or non-terminal stdin without --yes is a usage error.
+// kExitOk when the user confirmed (or passed --yes); a non-terminal stdin without --yes is a
+// usage error, any answer but yes an error.
 int Confirm(const ArgParser& parser, const std::string& question) {
   if (parser.Has("yes")) return kExitOk;
   if (::isatty(STDIN_FILENO) == 0) {
@@ -54,9 +56,9 @@ int RunSessionsRemove(CliContext context, int argc, const char* const* argv) {
   // Say what would go before asking (and fail early for an unknown session).
   StatusOr<std::vector<SessionInfo>> sessions = client.ListSessions(map);
   if (!sessions.ok()) return ReportError(sessions.status());
-  const SessionInfo* found = nullptr;
-  for (const SessionInfo& s : *sessions) found = s.name == session ? &s : found;
-  if (found == nullptr) {
+  const auto found = std::find_if(sessions->begin(), sessions->end(),
+                                  [&](const SessionInfo& s) { return s.name == session; });
+  if (found == sessions->end()) {
     return ReportError(NotFoundError("map '" + map + "' has no session '" + session + "'"));
   }
   if (int rc = Confirm(parser, "Remove session '" + session + "' of map '" + map + "' (" +

@@ -159,7 +159,7 @@ void MapLayerBuilder::Restore() {
   std::vector<StoredKeyframeCloud> stored;
   size_t damaged = 0;
   const Status status = writer_->RunSync([&](MapStore& store) -> Status {
-    StatusOr<std::optional<Eigen::Vector3d>> origin = ReadLayerOrigin(store, map_name_);
+    StatusOr<std::optional<Eigen::Vector3d>> origin = ReadLayerOrigin(store, map_id_, map_name_);
     if (!origin.ok() && origin.status().code() == StatusCode::kDataLoss) {
       std::fprintf(stderr, "semmapd: map '%s' layers: %s; using the first keyframe's origin\n",
                    map_name_.c_str(), origin.status().ToString().c_str());
@@ -303,9 +303,7 @@ void MapLayerBuilder::Rebuild() {
   occupancy_ = std::move(rebuilt).value();  // the swap: the old tree served until now
   size_t inserted = 0;
   for (auto& [key, entry] : entries_) {
-    entry.inserted =
-        entry.cloud && entry.T_world_keyframe &&
-        WithinLayerReach(LayerFromMap(*origin_) * *entry.T_world_keyframe, options_.occupancy);
+    entry.inserted = entry.cloud && entry.T_world_keyframe && InLayerFrame(key, entry).has_value();
     if (entry.inserted) ++inserted;
   }
   dirty_ = true;

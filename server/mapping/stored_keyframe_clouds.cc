@@ -34,10 +34,9 @@ StatusOr<KeyframeCloud> KeyframeCloudFromRecord(const KeyframeRecord& record,
   return MakeKeyframeCloud(*decoded, *bgr, camera, options);
 }
 
-StatusOr<std::optional<Eigen::Vector3d>> ReadLayerOrigin(MapStore& store,
+StatusOr<std::optional<Eigen::Vector3d>> ReadLayerOrigin(MapStore& store, int64_t map_id,
                                                          const std::string& map_name) {
-  SEMMAP_ASSIGN_OR_RETURN(MapInfo map, store.GetMap(map_name));
-  StatusOr<MapBlob> blob = store.GetBlob(map.id, kLayerOriginBlobKind);
+  StatusOr<MapBlob> blob = store.GetBlob(map_id, kLayerOriginBlobKind);
   if (blob.ok()) {
     SEMMAP_ASSIGN_OR_RETURN(Eigen::Vector3d origin, DecodeLayerOrigin(blob->data));
     return std::optional<Eigen::Vector3d>(origin);

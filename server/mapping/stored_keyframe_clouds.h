@@ -33,7 +33,7 @@ StatusOr<KeyframeCloud> KeyframeCloudFromRecord(const KeyframeRecord& record,
 // The origin of a map's layer frame (layer_frame.h): the stored one, or for a map that has none
 // yet (its layers were never persisted, or predate layer origins) the one its first stored
 // keyframe gives; nullopt for a map without keyframes. DATA_LOSS for a damaged stored origin.
-StatusOr<std::optional<Eigen::Vector3d>> ReadLayerOrigin(MapStore& store,
+StatusOr<std::optional<Eigen::Vector3d>> ReadLayerOrigin(MapStore& store, int64_t map_id,
                                                          const std::string& map_name);
 // The origin the map's first stored keyframe gives (nullopt without keyframes).
 StatusOr<std::optional<Eigen::Vector3d>> FirstKeyframeLayerOrigin(MapStore& store,

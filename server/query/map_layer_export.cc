@@ -269,7 +269,7 @@ StatusOr<ExportResult> BuildLayerExport(MapStore& store, const ExportRequest& re
     return InvalidArgumentError("voxel size must be a finite number >= 0");
   }
   SEMMAP_ASSIGN_OR_RETURN(MapInfo map, store.GetMap(request.map));
-  StatusOr<std::optional<Eigen::Vector3d>> stored_origin = ReadLayerOrigin(store, map.name);
+  StatusOr<std::optional<Eigen::Vector3d>> stored_origin = ReadLayerOrigin(store, map.id, map.name);
   if (!stored_origin.ok()) {
     return DataLossError("map '" + map.name + "': " + stored_origin.status().message());
   }

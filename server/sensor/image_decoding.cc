@@ -14,25 +14,26 @@ namespace {
 
 std::string SizeText(uint64_t w, uint64_t h) { return std::to_string(w) + "x" + std::to_string(h); }
 
-Status CheckSize(const cv::Mat& m, int w, int h, const char* what) {
-  if (m.cols != w || m.rows != h) {
-    return InvalidArgumentError(std::string(what) + " is " + SizeText(m.cols, m.rows) +
+// An image must have the session camera's size; checked before anything else is looked at.
+Status CheckCameraSize(uint64_t width, uint64_t height, int w, int h, const char* what) {
+  if (width != static_cast<uint64_t>(w) || height != static_cast<uint64_t>(h)) {
+    return InvalidArgumentError(std::string(what) + " is " + SizeText(width, height) +
                                 " but the session camera is " + SizeText(w, h));
   }
   return OkStatus();
 }
 
-// Wraps raw pixel bytes (no copy) after checking that width, height, step and data size agree.
-// Every size is computed in checked arithmetic: the numbers are the client's.
-StatusOr<cv::Mat> WrapRaw(const ImageMessage& image, int cv_type, uint64_t bytes_per_pixel,
-                          const char* what) {
+// Wraps raw pixel bytes (no copy) after checking that the size is the camera's (w x h) and that
+// step and data size agree. The step and data sizes are computed in checked arithmetic: the
+// numbers are the client's.
+StatusOr<cv::Mat> WrapRaw(const ImageMessage& image, int w, int h, int cv_type,
+                          uint64_t bytes_per_pixel, const char* what) {
+  SEMMAP_RETURN_IF_ERROR(CheckCameraSize(image.width, image.height, w, h, what));
   if (image.width == 0 || image.height == 0) {
     return InvalidArgumentError(std::string(what) + " has zero width or height");
   }
-  const std::optional<int> rows = CheckedNarrow<int>(image.height);
-  const std::optional<int> cols = CheckedNarrow<int>(image.width);
   const std::optional<uint64_t> min_step = CheckedMul(image.width, bytes_per_pixel);
-  if (!rows || !cols || !min_step) {
+  if (!min_step) {
     return InvalidArgumentError(std::string(what) + " size " + SizeText(image.width, image.height) +
                                 " is too large");
   }
@@ -49,17 +50,7 @@ StatusOr<cv::Mat> WrapRaw(const ImageMessage& image, int cv_type, uint64_t bytes
         std::to_string(step) + " needs " +
         (expected ? std::to_string(*expected) : std::string("more than 2^64")));
   }
-  return cv::Mat(*rows, *cols, cv_type, const_cast<char*>(image.data.data()),
-                 static_cast<size_t>(step));
-}
-
-// A raw image must have the session camera's size; checked before anything else is looked at.
-Status CheckRawSize(const ImageMessage& image, int w, int h, const char* what) {
-  if (image.width != static_cast<uint64_t>(w) || image.height != static_cast<uint64_t>(h)) {
-    return InvalidArgumentError(std::string(what) + " is " + SizeText(image.width, image.height) +
-                                " but the session camera is " + SizeText(w, h));
-  }
-  return OkStatus();
+  return cv::Mat(h, w, cv_type, const_cast<char*>(image.data.data()), static_cast<size_t>(step));
 }
 
 // Reads the header, checks the declared format and the size against the camera's, and only
@@ -82,10 +73,8 @@ StatusOr<cv::Mat> DecodeCompressed(const ImageMessage& image, DecodeTarget targe
                                 " but its bytes are a " +
                                 std::string(CompressedFormatName(info->format)));
   }
-  if (info->width != static_cast<uint32_t>(w) || info->height != static_cast<uint32_t>(h)) {
-    return InvalidArgumentError(std::string(what) + " is " + SizeText(info->width, info->height) +
-                                " but the session camera is " + SizeText(w, h));
-  }
+  SEMMAP_RETURN_IF_ERROR(CheckCameraSize(info->width, info->height, w, h, what));
+  // The decoder allocates exactly the header's size, so what it returns is the camera's.
   StatusOr<cv::Mat> decoded = DecodeCompressedImage(image.data, *info, target);
   if (!decoded.ok()) {
     return Status(decoded.status().code(),
@@ -102,22 +91,19 @@ StatusOr<cv::Mat> DecodeColour(const ImageMessage& image, int w, int h) {
     SEMMAP_ASSIGN_OR_RETURN(out,
                             DecodeCompressed(image, DecodeTarget::kColour, w, h, "colour image"));
   } else if (image.encoding == "bgr8" || image.encoding == "rgb8") {
-    SEMMAP_RETURN_IF_ERROR(CheckRawSize(image, w, h, "colour image"));
-    SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, CV_8UC3, 3, "colour image"));
+    SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, w, h, CV_8UC3, 3, "colour image"));
     if (image.encoding == "rgb8") {
       cv::cvtColor(wrapped, out, cv::COLOR_RGB2BGR);
     } else {
       out = wrapped.clone();
     }
   } else if (image.encoding == "mono8") {
-    SEMMAP_RETURN_IF_ERROR(CheckRawSize(image, w, h, "colour image"));
-    SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, CV_8UC1, 1, "colour image"));
+    SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, w, h, CV_8UC1, 1, "colour image"));
     out = wrapped.clone();
   } else {
     return InvalidArgumentError("colour image has unknown encoding '" + image.encoding +
                                 "' (expected rgb8, bgr8, mono8, or compressed png/jpeg)");
   }
-  SEMMAP_RETURN_IF_ERROR(CheckSize(out, w, h, "colour image"));
   return out;
 }
 
@@ -138,13 +124,11 @@ StatusOr<DecodedDepth> DecodeDepth(const DepthMessage& depth, int w, int h) {
                             DecodeCompressed(image, DecodeTarget::kDepth16, w, h, "depth image"));
     out.depth_scale = depth.depth_scale;
   } else if (image.encoding == "16UC1") {
-    SEMMAP_RETURN_IF_ERROR(CheckRawSize(image, w, h, "depth image"));
-    SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, CV_16UC1, 2, "depth image"));
+    SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, w, h, CV_16UC1, 2, "depth image"));
     out.raw = wrapped.clone();
     out.depth_scale = depth.depth_scale;
   } else if (metres) {
-    SEMMAP_RETURN_IF_ERROR(CheckRawSize(image, w, h, "depth image"));
-    SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, CV_32FC1, 4, "depth image"));
+    SEMMAP_ASSIGN_OR_RETURN(cv::Mat wrapped, WrapRaw(image, w, h, CV_32FC1, 4, "depth image"));
     constexpr double kScale = 5000.0;  // 0.2 mm steps, up to 13 m
     cv::Mat cleaned = wrapped.clone();
     cv::patchNaNs(cleaned, 0.0);
@@ -154,7 +138,6 @@ StatusOr<DecodedDepth> DecodeDepth(const DepthMessage& depth, int w, int h) {
     return InvalidArgumentError("depth image has unknown encoding '" + image.encoding +
                                 "' (expected 16UC1, 32FC1, or 16-bit png)");
   }
-  SEMMAP_RETURN_IF_ERROR(CheckSize(out.raw, w, h, "depth image"));
   return out;
 }
 

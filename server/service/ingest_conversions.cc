@@ -74,28 +74,26 @@ IngestMessage ConvertFrame(v1::Frame* in) {
   return frame;
 }
 
-std::string MessageName(uint64_t index) {
-  return "message " + std::to_string(index) + " of the ingest stream";
-}
-
-IngestMessage Unparseable(const Status& status) {
-  return IngestInvalid{Status(status.code(), status.message() + "; nothing from it on was read")};
+// `wire` is a grpc::ByteBuffer or a string_view (both have a ParseWire).
+template <typename Wire>
+IngestMessage Parse(const Wire& wire, uint64_t index) {
+  v1::IngestRequest request;
+  const Status parsed =
+      ParseWire(wire, &request, "message " + std::to_string(index) + " of the ingest stream");
+  if (!parsed.ok()) {
+    return IngestInvalid{Status(parsed.code(), parsed.message() + "; nothing from it on was read")};
+  }
+  return FromProto(std::move(request));
 }
 
 }  // namespace
 
 IngestMessage ParseIngestRequest(const grpc::ByteBuffer& buffer, uint64_t index) {
-  v1::IngestRequest request;
-  const Status parsed = ParseWire(buffer, &request, MessageName(index));
-  if (!parsed.ok()) return Unparseable(parsed);
-  return FromProto(std::move(request));
+  return Parse(buffer, index);
 }
 
 IngestMessage ParseIngestRequest(std::string_view bytes, uint64_t index) {
-  v1::IngestRequest request;
-  const Status parsed = ParseWire(bytes, &request, MessageName(index));
-  if (!parsed.ok()) return Unparseable(parsed);
-  return FromProto(std::move(request));
+  return Parse(bytes, index);
 }
 
 IngestMessage FromProto(v1::IngestRequest&& request) {
