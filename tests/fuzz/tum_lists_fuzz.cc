@@ -12,6 +12,7 @@
 #include "client/datasets/tum_dataset.h"
 #include "common/time_util.h"
 #include "tests/fuzz/fuzz_util.h"
+#include "tests/testing/all_pairs_association.h"
 
 namespace semmap {
 namespace {
@@ -44,27 +45,6 @@ void CheckList(const std::vector<TumListEntry>& entries, const std::string& name
   }
 }
 
-// associate.py's rule, all pairs: the reference for AssociateStamps on small inputs.
-std::vector<std::optional<size_t>> AssociateAllPairs(const std::vector<int64_t>& a,
-                                                     const std::vector<int64_t>& b, int64_t max) {
-  std::vector<std::tuple<int64_t, int64_t, int64_t, size_t, size_t>> pairs;
-  for (size_t i = 0; i < a.size(); ++i) {
-    for (size_t j = 0; j < b.size(); ++j) {
-      const int64_t d = a[i] > b[j] ? a[i] - b[j] : b[j] - a[i];
-      if (d < max) pairs.emplace_back(d, a[i], b[j], i, j);
-    }
-  }
-  std::sort(pairs.begin(), pairs.end());
-  std::vector<std::optional<size_t>> partner(a.size());
-  std::vector<bool> used(b.size(), false);
-  for (const auto& [d, sa, sb, i, j] : pairs) {
-    if (partner[i] || used[j]) continue;
-    partner[i] = j;
-    used[j] = true;
-  }
-  return partner;
-}
-
 void CheckAssociation(const std::vector<int64_t>& a, const std::vector<int64_t>& b) {
   const std::vector<std::optional<size_t>> partner = AssociateStamps(a, b, kTumMaxAssociationNs);
   FUZZ_CHECK(partner.size() == a.size());
@@ -77,7 +57,7 @@ void CheckAssociation(const std::vector<int64_t>& a, const std::vector<int64_t>&
     FUZZ_CHECK(std::llabs(a[i] - b[*partner[i]]) < kTumMaxAssociationNs);
   }
   if (a.size() * b.size() <= 4096)
-    FUZZ_CHECK(partner == AssociateAllPairs(a, b, kTumMaxAssociationNs));
+    FUZZ_CHECK(partner == testing::AssociateAllPairs(a, b, kTumMaxAssociationNs));
 }
 
 }  // namespace

@@ -8,6 +8,8 @@
 #include <tuple>
 #include <vector>
 
+#include "tests/testing/all_pairs_association.h"
+
 namespace semmap {
 namespace {
 
@@ -74,26 +76,6 @@ TEST(AssociateStampsTest, EqualStampsPairInIndexOrder) {
   EXPECT_EQ(AssociateStamps({0}, {0}, 0), (Partners{std::nullopt}));
 }
 
-// associate.py's rule as written: every pair within the threshold, sorted, taken greedily.
-Partners AllPairs(const std::vector<int64_t>& a, const std::vector<int64_t>& b, int64_t max) {
-  std::vector<std::tuple<int64_t, int64_t, int64_t, size_t, size_t>> pairs;
-  for (size_t i = 0; i < a.size(); ++i) {
-    for (size_t j = 0; j < b.size(); ++j) {
-      const int64_t d = a[i] > b[j] ? a[i] - b[j] : b[j] - a[i];
-      if (d < max) pairs.emplace_back(d, a[i], b[j], i, j);
-    }
-  }
-  std::sort(pairs.begin(), pairs.end());
-  Partners partner(a.size());
-  std::vector<bool> used(b.size(), false);
-  for (const auto& [d, sa, sb, i, j] : pairs) {
-    if (partner[i] || used[j]) continue;
-    partner[i] = j;
-    used[j] = true;
-  }
-  return partner;
-}
-
 TEST(AssociateStampsTest, MatchesAllPairsGreedyOnRandomStampsWithTies) {
   std::mt19937 rng(11);
   for (int trial = 0; trial < 3000; ++trial) {
@@ -102,7 +84,8 @@ TEST(AssociateStampsTest, MatchesAllPairsGreedyOnRandomStampsWithTies) {
     for (int64_t& s : a) s = static_cast<int64_t>(rng() % range);
     for (int64_t& s : b) s = static_cast<int64_t>(rng() % range);
     const int64_t max = 1 + static_cast<int64_t>(rng() % 5);
-    ASSERT_EQ(AssociateStamps(a, b, max), AllPairs(a, b, max)) << "trial " << trial;
+    ASSERT_EQ(AssociateStamps(a, b, max), testing::AssociateAllPairs(a, b, max))
+        << "trial " << trial;
   }
 }
 
