@@ -7,7 +7,7 @@
 #include <sstream>
 #include <vector>
 
-#include "server/sensor/image_decoding.h"
+#include "core/sensor/image_decoding.h"
 
 namespace semmap {
 namespace {

@@ -81,7 +81,7 @@ bench_sequence() {
   printf '  end-to-end frames/s: layers on %.1f, off %.1f\n' "$on_fps" "$off_fps"
   # "layers: 30 keyframes (0 restored), 0 rebuilds, octree 1.7 MiB over 12.3 m3 known, ..."
   local line
-  line=$(grep "layers:" "$OUT/$name-semmapd.log" | tail -n1 | sed 's/^semmapd: //')
+  line=$(grep "layers:" "$OUT/$name-semmapd.log" | tail -n1 | sed 's/^.* info: //')
   printf '  %s\n' "$line"
   report_set ".$name" "$(jq -n --slurpfile on "$first" --arg line "$line" \
     --argjson on_p50 "$on_p50" --argjson on_p95 "$on_p95" --argjson off_p50 "$off_p50" \

@@ -1,4 +1,4 @@
-// Descriptor matching (server/odometry/feature_matcher) on ORB descriptors of synthetic 640x480
+// Descriptor matching (core/odometry/feature_matcher) on ORB descriptors of synthetic 640x480
 // frames of the default room: MatchDescriptors (ratio test + cross check, the matcher of loop
 // verification and relocalisation) for query x train rows of 1000x1000 and 500x1000, and
 // MatchGuided with 12 px windows around predictions 3 px off the true projections. CPU is the
@@ -9,8 +9,8 @@
 #include <optional>
 #include <vector>
 
-#include "server/odometry/feature_extractor.h"
-#include "server/odometry/feature_matcher.h"
+#include "core/odometry/feature_extractor.h"
+#include "core/odometry/feature_matcher.h"
 #include "tests/testing/synth/default_scene.h"
 #include "tests/testing/synth/renderer.h"
 #include "tests/testing/synth/sequence_writer.h"

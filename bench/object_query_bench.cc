@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "server/query/store_map_query.h"
+#include "core/query/store_map_query.h"
 #include "storage/sqlite/sqlite_map_store.h"
 #include "tests/testing/temp_dir.h"
 
@@ -98,8 +98,8 @@ void BM_FindObjects(benchmark::State& state) {
     const auto t0 = std::chrono::steady_clock::now();
     StatusOr<std::vector<ObjectInstance>> found =
         f.query->FindObjects("object_" + std::to_string(i++ % kTypes), "building");
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                     .count());
+    ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     if (!found.ok()) state.SkipWithError(found.status().ToString().c_str());
     results += static_cast<double>(found->size());
   }
@@ -118,8 +118,8 @@ void BM_ObjectsNear(benchmark::State& state) {
     const Eigen::Vector3d p(xy(rng), xy(rng), z(rng));
     const auto t0 = std::chrono::steady_clock::now();
     StatusOr<std::vector<ObjectInstance>> found = f.query->ObjectsNear("building", p, radius, "");
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                     .count());
+    ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     if (!found.ok()) state.SkipWithError(found.status().ToString().c_str());
     results += static_cast<double>(found->size());
   }

@@ -1,4 +1,4 @@
-// Place recognition (server/slam) with the shipped vocabulary (models/orb_vocab.bin, k 10, L 4):
+// Place recognition (core/slam) with the shipped vocabulary (models/orb_vocab.bin, k 10, L 4):
 //   BM_Transform      BowVocabulary::Transform of the 1000 ORB descriptors of a synthetic
 //                     640x480 frame (with the direct index at level 2: BM_Transform/2)
 //   BM_Query/N        PlaceDatabase::Query, top 10, against N entries (100, 1000, 10000)
@@ -14,9 +14,9 @@
 #include <random>
 #include <vector>
 
-#include "server/odometry/feature_extractor.h"
-#include "server/slam/bow_vocabulary.h"
-#include "server/slam/place_database.h"
+#include "core/odometry/feature_extractor.h"
+#include "core/slam/bow_vocabulary.h"
+#include "core/slam/place_database.h"
 #include "tests/testing/synth/default_scene.h"
 #include "tests/testing/synth/renderer.h"
 #include "tests/testing/synth/sequence_writer.h"

@@ -1,4 +1,4 @@
-// RGB-D tracking front end (server/odometry) on synthetic 640x480 frames of the default room
+// RGB-D tracking front end (core/odometry) on synthetic 640x480 frames of the default room
 // (circle trajectory, 120 frames per lap). Each benchmark reports the p50 of its per-frame
 // times as the counter p50_ms (Google Benchmark's own figure is the mean):
 //   BM_Extract      ORB detection + grid bucketing + descriptors + depth lookup of one frame
@@ -11,13 +11,15 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
+#include <memory>
 #include <optional>
 #include <vector>
 
-#include "server/odometry/feature_extractor.h"
-#include "server/odometry/feature_matcher.h"
-#include "server/odometry/motion_estimator.h"
-#include "server/odometry/rgbd_tracker.h"
+#include "core/odometry/feature_extractor.h"
+#include "core/odometry/feature_matcher.h"
+#include "core/odometry/motion_estimator.h"
+#include "core/odometry/rgbd_tracker.h"
+#include "core/slam/keyframe_policy.h"
 #include "tests/testing/synth/default_scene.h"
 #include "tests/testing/synth/renderer.h"
 #include "tests/testing/synth/sequence_writer.h"
@@ -143,12 +145,14 @@ void BM_TrackFrame(benchmark::State& state) {
   double map_points = 0;
   int64_t stamp = 0;
   size_t i = 0;
-  StatusOr<RgbdTracker> tracker = RgbdTracker::Create(options);
+  StatusOr<RgbdTracker> tracker =
+      RgbdTracker::Create(options, std::make_unique<KeyframePolicy>(KeyframePolicyOptions{}));
   if (!tracker.ok()) std::abort();
   for (auto _ : state) {
     if (i % s.frames.size() == 0) {  // restart at each lap of the stored frames (not timed)
       state.PauseTiming();
-      tracker = RgbdTracker::Create(options);
+      tracker =
+          RgbdTracker::Create(options, std::make_unique<KeyframePolicy>(KeyframePolicyOptions{}));
       state.ResumeTiming();
     }
     const synth::RenderedFrame& f = s.frames[i++ % s.frames.size()];

@@ -1,5 +1,5 @@
 // Hamming distance between binary descriptors (ORB, BRIEF, AKAZE-MLDB): the metric of
-// descriptor matching (server/odometry) and of the bag-of-words vocabulary (server/slam).
+// descriptor matching (core/odometry) and of the bag-of-words vocabulary (core/slam).
 #pragma once
 
 #include <bit>

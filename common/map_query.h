@@ -30,7 +30,7 @@ struct ExportResult {
   std::string bytes;
   std::string sha256_hex;
   // 3D formats: map coordinates = layer coordinates + layer_origin (zero for maps near their
-  // frame's origin; see server/mapping/layer_frame.h).
+  // frame's origin; see core/mapping/layer_frame.h).
   Eigen::Vector3d layer_origin = Eigen::Vector3d::Zero();
 };
 

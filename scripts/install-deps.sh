@@ -13,6 +13,8 @@ PACKAGES=(
   libopencv-dev libeigen3-dev libceres-dev liboctomap-dev libpcl-dev
   # storage, hashing, json
   libsqlite3-dev libssl-dev nlohmann-json3-dev
+  # logging (levels, one logger for the tree)
+  libspdlog-dev
   # image decoding (PNG, JPEG)
   libpng-dev libjpeg-dev zlib1g-dev
   # tests and benchmarks

@@ -11,12 +11,20 @@
 #include <iostream>
 #include <system_error>
 
-#include "server/query/store_map_query.h"
-#include "server/slam/bow_vocabulary.h"
+#include "common/logging.h"
+#include "core/query/store_map_query.h"
+#include "core/slam/bow_vocabulary.h"
 #include "storage/sqlite/sqlite_map_store.h"
 
 namespace semmap {
 namespace {
+
+// Start failed after the writer started: stop it; its own error is secondary, so logged.
+void StopWriterAfterError(StorageWriter& writer) {
+  const Status stopped = writer.Stop();
+  if (!stopped.ok())
+    LogError("stopping the storage writer after a failed start: {}", stopped.ToString());
+}
 
 StatusOr<int> LockDataDir(const std::string& dir) {
   const std::string path = dir + "/LOCK";
@@ -64,14 +72,14 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
     return OkStatus();
   });
   if (!marked.ok()) {
-    Status stopped = server->writer_->Stop();
-    (void)stopped;
+    StopWriterAfterError(*server->writer_);
     return marked.WithContext("marking sessions left open");
   }
   if (crashed > 0) {
-    std::cerr << "semmapd: " << crashed
-              << " session(s) were left open by a previous run that did not stop cleanly; "
-                 "marked crashed (their acknowledged-durable frames are kept)\n";
+    LogWarning(
+        "{} session(s) were left open by a previous run that did not stop cleanly; marked "
+        "crashed (their acknowledged-durable frames are kept)",
+        crashed);
   }
   server->query_ = std::make_unique<StoreMapQuery>(std::move(read_store), options.ingest.layers);
   std::shared_ptr<const BowVocabulary> vocabulary;
@@ -80,19 +88,17 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
     if (loaded.ok()) {
       vocabulary = std::make_shared<const BowVocabulary>(std::move(loaded).value());
     } else if (!options.vocabulary_optional) {
-      Status stopped = server->writer_->Stop();
-      (void)stopped;
+      StopWriterAfterError(*server->writer_);
       return loaded.status().WithContext("--vocabulary " + options.vocabulary_path);
     } else {
-      std::cerr << "semmapd: no place-recognition vocabulary (" << loaded.status().ToString()
-                << "); loop closure by pose proximity only\n";
+      LogWarning("no place-recognition vocabulary ({}); loop closure by pose proximity only",
+                 loaded.status().ToString());
     }
   }
   StatusOr<std::unique_ptr<ObjectCatalog>> objects =
       ObjectCatalog::Load(server->writer_.get(), options.recognition);
   if (!objects.ok()) {
-    Status stopped = server->writer_->Stop();
-    (void)stopped;
+    StopWriterAfterError(*server->writer_);
     return objects.status().WithContext("loading the object database");
   }
   server->objects_ = std::move(objects).value();
@@ -111,8 +117,7 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   server->server_ = builder.BuildAndStart();
   if (!server->server_ || server->port_ == 0) {
     server->server_.reset();
-    Status stopped = server->writer_->Stop();
-    (void)stopped;
+    StopWriterAfterError(*server->writer_);
     return UnavailableError("cannot listen on " + options.listen +
                             " (address in use or not valid)");
   }
@@ -121,8 +126,8 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
 }
 
 SemmapServer::~SemmapServer() {
-  Status status = Shutdown();
-  (void)status;
+  const Status status = Shutdown();
+  if (!status.ok()) LogError("server shutdown: {}", status.ToString());
   if (lock_fd_ >= 0) ::close(lock_fd_);
 }
 

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "common/map_query.h"
-#include "server/ingest/ingest_manager.h"
+#include "core/pipeline/ingest_manager.h"
 #include "server/server_options.h"
 #include "server/service/map_service.h"
 #include "storage/storage_writer.h"

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "common/arg_parser.h"
+#include "common/logging.h"
 #include "server/semmap_server.h"
 
 namespace {
@@ -22,6 +23,7 @@ constexpr char kUsage[] =
 
 semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions* options) {
   options->listen = args.Get("listen", options->listen);
+  SEMMAP_ASSIGN_OR_RETURN(options->log_level, semmap::ParseLogLevel(args.Get("log-level", "info")));
   options->data_dir = args.Get("data-dir", options->data_dir);
   const std::string sync = args.Get("sqlite-sync", "full");
   if (sync != "full" && sync != "normal") {
@@ -96,6 +98,7 @@ int main(int argc, char** argv) {
   args.AddFlag("listen", "HOST:PORT",
                "address to serve on (default 127.0.0.1:50051; port 0 picks one)");
   args.AddFlag("data-dir", "DIR", "where the SQLite database lives (default ./semmap-data)");
+  args.AddFlag("log-level", "LEVEL", "debug, info, warning, error or off (default info; stderr)");
   args.AddFlag("sqlite-sync", "full|normal", "SQLite synchronous mode (default full)");
   args.AddFlag("queue-capacity", "N", "frames buffered per ingest stream (default 8)");
   args.AddFlag("max-message-mb", "MB", "largest accepted message / frame payload (default 64)");
@@ -154,10 +157,11 @@ int main(int argc, char** argv) {
   sigaddset(&stop_signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
-  std::cerr << "semmapd: starting with " << options.ToString() << std::endl;
+  semmap::SetLogLevel(options.log_level);
+  semmap::LogInfo("starting with {}", options.ToString());
   auto server = semmap::SemmapServer::Start(options);
   if (!server.ok()) {
-    std::cerr << "semmapd: " << server.status().ToString() << std::endl;
+    semmap::LogError("{}", server.status().ToString());
     return 1;
   }
   // Machine-readable line: scripts and tests wait for it to learn the port.
@@ -165,13 +169,12 @@ int main(int argc, char** argv) {
 
   int signal_number = 0;
   sigwait(&stop_signals, &signal_number);
-  std::cerr << "semmapd: received " << (signal_number == SIGINT ? "SIGINT" : "SIGTERM")
-            << ", shutting down" << std::endl;
+  semmap::LogInfo("received {}, shutting down", signal_number == SIGINT ? "SIGINT" : "SIGTERM");
   semmap::Status stopped = (*server)->Shutdown();
   if (!stopped.ok()) {
-    std::cerr << "semmapd: shutdown: " << stopped.ToString() << std::endl;
+    semmap::LogError("shutdown: {}", stopped.ToString());
     return 1;
   }
-  std::cerr << "semmapd: stopped cleanly" << std::endl;
+  semmap::LogInfo("stopped cleanly");
   return 0;
 }

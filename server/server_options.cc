@@ -30,7 +30,7 @@ Status ServerOptions::Validate() const {
 
 std::string ServerOptions::ToString() const {
   std::ostringstream out;
-  out << "listen=" << listen << " data_dir=" << data_dir
+  out << "listen=" << listen << " data_dir=" << data_dir << " log_level=" << LogLevelName(log_level)
       << " sqlite_synchronous=" << (sync_full ? "FULL" : "NORMAL")
       << " max_message_mb=" << max_message_mb << " shutdown_grace_s=" << shutdown_grace_s
       << " queue_capacity=" << ingest.queue_capacity

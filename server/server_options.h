@@ -3,15 +3,17 @@
 
 #include <string>
 
+#include "common/logging.h"
 #include "common/status.h"
-#include "server/ingest/ingest_options.h"
-#include "server/recognition/object_model.h"
+#include "core/pipeline/ingest_options.h"
+#include "core/recognition/object_model.h"
 
 namespace semmap {
 
 struct ServerOptions {
   std::string listen = "127.0.0.1:50051";
   std::string data_dir = "./semmap-data";
+  LogLevel log_level = LogLevel::kInfo;  // semmapd applies it process-wide (SetLogLevel)
   bool sync_full = true;  // SQLite synchronous=FULL: acknowledged-durable frames survive power loss
   int max_message_mb = 64;
   int shutdown_grace_s = 5;            // time in-flight streams get to finish at shutdown

@@ -12,8 +12,8 @@
 #include "client/datasets/dataset.h"
 #include "common/arg_parser.h"
 #include "common/sha256.h"
-#include "server/odometry/feature_extractor.h"
-#include "server/slam/bow_vocabulary.h"
+#include "core/odometry/feature_extractor.h"
+#include "core/slam/bow_vocabulary.h"
 
 namespace {
 

@@ -12,7 +12,7 @@
 #include "client/datasets/image_file.h"
 #include "client/datasets/pose_lookup.h"
 #include "client/datasets/trajectory_io.h"
-#include "rpc/conversions.h"
+#include "server/serialization/conversions.h"
 
 namespace semmap::cli {
 namespace {

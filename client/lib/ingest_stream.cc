@@ -1,6 +1,6 @@
 #include "client/lib/ingest_stream.h"
 
-#include "rpc/conversions.h"
+#include "server/serialization/conversions.h"
 
 namespace semmap {
 

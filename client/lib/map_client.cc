@@ -5,8 +5,8 @@
 
 #include "common/sha256.h"
 #include "grpc/health/v1/health.grpc.pb.h"
-#include "rpc/conversions.h"
-#include "rpc/object_conversions.h"
+#include "server/serialization/conversions.h"
+#include "server/serialization/object_conversions.h"
 
 namespace semmap {
 

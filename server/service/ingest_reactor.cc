@@ -2,8 +2,8 @@
 
 #include <chrono>
 
-#include "server/service/ingest_conversions.h"
-#include "server/service/wire_parsing.h"
+#include "server/serialization/ingest_conversions.h"
+#include "server/serialization/wire_parsing.h"
 
 namespace semmap {
 

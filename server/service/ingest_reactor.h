@@ -15,8 +15,8 @@
 #include <mutex>
 #include <optional>
 
+#include "core/pipeline/ingest_manager.h"
 #include "semmap/v1/service.grpc.pb.h"
-#include "server/ingest/ingest_manager.h"
 
 namespace semmap {
 

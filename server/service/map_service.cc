@@ -3,12 +3,12 @@
 #include <algorithm>
 #include <chrono>
 
-#include "rpc/conversions.h"
-#include "rpc/object_conversions.h"
+#include "server/serialization/conversions.h"
+#include "server/serialization/object_conversions.h"
+#include "server/serialization/request_conversions.h"
+#include "server/serialization/wire_parsing.h"
 #include "server/service/ingest_reactor.h"
 #include "server/service/message_stream_reactor.h"
-#include "server/service/request_conversions.h"
-#include "server/service/wire_parsing.h"
 
 namespace semmap {
 namespace {
@@ -41,8 +41,8 @@ CancelCheck ClientStillWaiting(grpc::CallbackServerContext* context) {
 }  // namespace
 
 template <typename Request, typename Response>
-grpc::ServerUnaryReactor* MapServiceImpl::Unary(grpc::CallbackServerContext* context,
-                                                const Raw* in, Raw* out) {
+grpc::ServerUnaryReactor* MapServiceImpl::Unary(grpc::CallbackServerContext* context, const Raw* in,
+                                                Raw* out) {
   Request request;
   Status status = ParseWire(*in, &request, "the request");
   Response response;
@@ -67,10 +67,10 @@ grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* MapServiceImpl::Ing
   return new IngestReactor(context, ingest_);
 }
 
-#define SEMMAP_UNARY(Method)                                                              \
+#define SEMMAP_UNARY(Method)                                                             \
   grpc::ServerUnaryReactor* MapServiceImpl::Method(grpc::CallbackServerContext* context, \
                                                    const Raw* in, Raw* out) {            \
-    return Unary<v1::Method##Request, v1::Method##Response>(context, in, out);          \
+    return Unary<v1::Method##Request, v1::Method##Response>(context, in, out);           \
   }
 SEMMAP_UNARY(ListMaps)
 SEMMAP_UNARY(ListSessions)
@@ -193,7 +193,8 @@ Status MapServiceImpl::Answer(grpc::CallbackServerContext* context,
 }
 
 Status MapServiceImpl::Answer(grpc::CallbackServerContext* context,
-                              const v1::RemoveMapRequest& request, v1::RemoveMapResponse* response) {
+                              const v1::RemoveMapRequest& request,
+                              v1::RemoveMapResponse* response) {
   if (request.map().empty()) return InvalidArgumentError("RemoveMap needs a map");
   SEMMAP_ASSIGN_OR_RETURN(RemovedCounts removed,
                           ingest_->RemoveMap(request.map(), ClientStillWaiting(context)));

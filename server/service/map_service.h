@@ -12,14 +12,14 @@
 #include <vector>
 
 #include "common/map_query.h"
+#include "core/objects/object_catalog.h"
+#include "core/pipeline/ingest_manager.h"
 #include "semmap/v1/service.grpc.pb.h"
-#include "server/ingest/ingest_manager.h"
-#include "server/objects/object_catalog.h"
 
 namespace semmap {
 
-using MapServiceBase = v1::MapService::WithRawCallbackMethod_Ingest<
-    v1::MapService::WithRawCallbackMethod_ListMaps<
+using MapServiceBase =
+    v1::MapService::WithRawCallbackMethod_Ingest<v1::MapService::WithRawCallbackMethod_ListMaps<
         v1::MapService::WithRawCallbackMethod_ListSessions<
             v1::MapService::WithRawCallbackMethod_GetTrajectory<
                 v1::MapService::WithRawCallbackMethod_ExportMap<

@@ -8,8 +8,8 @@
 #include <utility>
 #include <vector>
 
-#include "rpc/conversions.h"
-#include "server/service/wire_parsing.h"
+#include "server/serialization/conversions.h"
+#include "server/serialization/wire_parsing.h"
 
 namespace semmap {
 

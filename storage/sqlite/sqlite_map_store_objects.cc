@@ -15,7 +15,7 @@ using sqlite::StatementLease;
 
 namespace {
 
-// ValidateName's rules (server/ingest/name_validation.h), repeated here because the server
+// ValidateName's rules (common/name_validation.h), repeated here because the server
 // library depends on storage: labels the service accepts are exactly the ones stored.
 Status ValidateLabel(const std::string& label) {
   if (label.empty()) return InvalidArgumentError("object type label is empty");
@@ -56,7 +56,10 @@ std::string EncodeSessionIds(std::vector<int64_t> ids) {
   std::sort(ids.begin(), ids.end());
   ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
   std::string text;
-  for (int64_t id : ids) text += (text.empty() ? "" : ",") + std::to_string(id);
+  for (int64_t id : ids) {
+    if (!text.empty()) text += ',';
+    text += std::to_string(id);
+  }
   return text;
 }
 

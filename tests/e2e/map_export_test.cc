@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "client/datasets/trajectory_io.h"
-#include "server/mapping/occupancy_map.h"
+#include "core/mapping/occupancy_map.h"
 #include "tests/testing/server_process.h"
 #include "tests/testing/temp_dir.h"
 

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "common/sha256.h"
-#include "server/slam/bow_vocabulary.h"
+#include "core/slam/bow_vocabulary.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace semmap {

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "server/mapping/cloud_pcd_reader.h"
-#include "server/mapping/point_cloud_map.h"
+#include "core/mapping/cloud_pcd_reader.h"
+#include "core/mapping/point_cloud_map.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace {

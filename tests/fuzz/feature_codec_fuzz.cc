@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <string>
 
-#include "server/slam/feature_codec.h"
+#include "core/slam/feature_codec.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace {

@@ -1,4 +1,4 @@
-// Image decoding of client and stored bytes (server/sensor): PNG / JPEG headers and pixels, and
+// Image decoding of client and stored bytes (core/sensor): PNG / JPEG headers and pixels, and
 // raw images with client-given sizes. The first input byte picks what is decoded; the rest is
 // the image. Whatever decodes has the size its header claimed; nothing decodes that is larger
 // than the camera it is checked against; every failure is INVALID_ARGUMENT (or
@@ -7,8 +7,8 @@
 #include <cstring>
 #include <string>
 
-#include "server/sensor/compressed_image.h"
-#include "server/sensor/image_decoding.h"
+#include "core/sensor/compressed_image.h"
+#include "core/sensor/image_decoding.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace {

@@ -1,4 +1,4 @@
-// The Ingest stream's messages as they come off the wire (server/service/ingest_conversions):
+// The Ingest stream's messages as they come off the wire (server/serialization/ingest_conversions):
 // bytes -> IngestRequest -> pipeline message, then what the session's decoder does with a frame
 // (image decoding against the start's camera). Garbage, truncation and invalid UTF-8 must come
 // out as IngestInvalid with INVALID_ARGUMENT, never as anything the session would store.
@@ -6,8 +6,8 @@
 #include <string>
 #include <variant>
 
-#include "server/sensor/image_decoding.h"
-#include "server/service/ingest_conversions.h"
+#include "core/sensor/image_decoding.h"
+#include "server/serialization/ingest_conversions.h"
 #include "tests/fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

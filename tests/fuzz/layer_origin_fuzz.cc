@@ -1,9 +1,9 @@
-// The stored layer origin of a map (server/mapping/layer_frame): what decodes is a finite
+// The stored layer origin of a map (core/mapping/layer_frame): what decodes is a finite
 // position within 1e7 m that encodes back to bytes decoding to the same position.
 #include <cmath>
 #include <cstdint>
 
-#include "server/mapping/layer_frame.h"
+#include "core/mapping/layer_frame.h"
 #include "tests/fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -18,10 +18,10 @@
 #include <string>
 #include <vector>
 
-#include "server/mapping/occupancy_map.h"
-#include "server/mapping/point_cloud_map.h"
-#include "server/slam/bow_vocabulary.h"
-#include "server/slam/feature_codec.h"
+#include "core/mapping/occupancy_map.h"
+#include "core/mapping/point_cloud_map.h"
+#include "core/slam/bow_vocabulary.h"
+#include "core/slam/feature_codec.h"
 #include "tests/fuzz/make_wire_seeds.h"
 
 namespace semmap {

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "rpc/conversions.h"
 #include "semmap/v1/service.pb.h"
+#include "server/serialization/conversions.h"
 
 namespace semmap::fuzz {
 namespace {

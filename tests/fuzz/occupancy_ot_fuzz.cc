@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <string>
 
-#include "server/mapping/occupancy_map.h"
+#include "core/mapping/occupancy_map.h"
 #include "tests/fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -1,11 +1,12 @@
-// Every other request message as a handler reads it (server/service/request_conversions and
-// rpc/conversions): the first byte picks the message type, the rest is its wire bytes. What
-// parses converts without a crash; conversions that can refuse do so with INVALID_ARGUMENT.
+// Every other request message as a handler reads it (server/serialization/request_conversions and
+// server/serialization/conversions): the first byte picks the message type, the rest is its wire
+// bytes. What parses converts without a crash; conversions that can refuse do so with
+// INVALID_ARGUMENT.
 #include <cstdint>
 #include <string>
 
-#include "rpc/conversions.h"
-#include "server/service/request_conversions.h"
+#include "server/serialization/conversions.h"
+#include "server/serialization/request_conversions.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace {

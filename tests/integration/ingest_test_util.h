@@ -5,8 +5,8 @@
 #include <string>
 
 #include "client/lib/map_client.h"
-#include "rpc/conversions.h"
 #include "server/semmap_server.h"
+#include "server/serialization/conversions.h"
 #include "tests/testing/synthetic_frames.h"
 
 namespace semmap::testing {

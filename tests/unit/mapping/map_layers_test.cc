@@ -23,10 +23,10 @@
 #include <tuple>
 #include <vector>
 
-#include "server/mapping/cloud_pcd_reader.h"
-#include "server/mapping/layer_frame.h"
-#include "server/mapping/map_layer_builder.h"
-#include "server/query/map_export.h"
+#include "core/mapping/cloud_pcd_reader.h"
+#include "core/mapping/layer_frame.h"
+#include "core/mapping/map_layer_builder.h"
+#include "core/query/map_export.h"
 #include "storage/sqlite/sqlite_map_store.h"
 #include "storage/storage_writer.h"
 #include "tests/testing/synth/default_scene.h"

@@ -1,7 +1,7 @@
 // RenderMapPng: pictures decoded back with cv::imdecode and checked at the pixels that
 // MapViewProjection gives for known world points (a green floor at y = 0 under cameras at
 // y = -1 facing +z, camera convention), plus the view basis, options and input checks.
-#include "server/mapping/map_render.h"
+#include "core/mapping/map_render.h"
 
 #include <gtest/gtest.h>
 

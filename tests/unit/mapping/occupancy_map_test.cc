@@ -1,7 +1,7 @@
 // OccupancyMap: known answers from the synthetic room (walls x = +-3, y = +-2.5, shelf front
 // at x = -2.55), voxel colours, loop-closure rebuilds, .ot round trips (ColorOcTree and plain
 // OcTree), .bt export and damaged bytes.
-#include "server/mapping/occupancy_map.h"
+#include "core/mapping/occupancy_map.h"
 
 #include <gtest/gtest.h>
 #include <octomap/ColorOcTree.h>  // inner colours as OctoMap computes them

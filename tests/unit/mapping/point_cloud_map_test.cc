@@ -1,7 +1,7 @@
 // PointCloudMap: known answers from hand-made keyframe clouds (points at leaf centres, known
 // colours, known poses), leaf means, merging, rigid moves, and PLY/PCD exports read back with
 // PCL's own readers.
-#include "server/mapping/point_cloud_map.h"
+#include "core/mapping/point_cloud_map.h"
 
 #include <gtest/gtest.h>
 #include <pcl/PCLPointCloud2.h>
@@ -23,7 +23,7 @@
 #include <utility>
 #include <vector>
 
-#include "server/mapping/cloud_pcd_reader.h"
+#include "core/mapping/cloud_pcd_reader.h"
 #include "tests/testing/temp_dir.h"
 
 namespace semmap {

@@ -3,7 +3,7 @@
 // the observation is stored in the keyframe's frame, the instance lands at the book's front
 // face, moves with its keyframes after a pose-graph correction, survives a restart of the
 // mapper, and goes away with its type.
-#include "server/objects/object_mapper.h"
+#include "core/objects/object_mapper.h"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "server/objects/object_catalog.h"
+#include "core/objects/object_catalog.h"
 #include "storage/sqlite/sqlite_map_store.h"
 #include "storage/storage_writer.h"
 #include "tests/testing/synth/object_template.h"

@@ -1,4 +1,4 @@
-#include "server/odometry/feature_extractor.h"
+#include "core/odometry/feature_extractor.h"
 
 #include <gtest/gtest.h>
 

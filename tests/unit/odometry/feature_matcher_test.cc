@@ -1,4 +1,4 @@
-#include "server/odometry/feature_matcher.h"
+#include "core/odometry/feature_matcher.h"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "server/odometry/feature_extractor.h"
+#include "core/odometry/feature_extractor.h"
 #include "tests/unit/odometry/odometry_test_util.h"
 
 namespace semmap {

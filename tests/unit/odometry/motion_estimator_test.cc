@@ -1,12 +1,12 @@
-#include "server/odometry/motion_estimator.h"
+#include "core/odometry/motion_estimator.h"
 
 #include <gtest/gtest.h>
 
 #include <random>
 #include <vector>
 
-#include "server/odometry/feature_extractor.h"
-#include "server/odometry/feature_matcher.h"
+#include "core/odometry/feature_extractor.h"
+#include "core/odometry/feature_matcher.h"
 #include "tests/unit/odometry/odometry_test_util.h"
 
 namespace semmap {

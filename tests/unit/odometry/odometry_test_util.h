@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "common/camera.h"
-#include "server/odometry/feature_extractor.h"
+#include "core/odometry/feature_extractor.h"
 #include "tests/testing/synth/default_scene.h"
 #include "tests/testing/synth/renderer.h"
 #include "tests/testing/synth/sequence_writer.h"

@@ -1,4 +1,4 @@
-#include "server/odometry/rgbd_refiner.h"
+#include "core/odometry/rgbd_refiner.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "server/odometry/local_map.h"
+#include "core/odometry/local_map.h"
 #include "tests/unit/odometry/odometry_test_util.h"
 
 namespace semmap {

@@ -1,4 +1,4 @@
-#include "server/odometry/rgbd_tracker.h"
+#include "core/odometry/rgbd_tracker.h"
 
 #include <gtest/gtest.h>
 
@@ -11,6 +11,7 @@
 
 #include "client/datasets/dataset.h"
 #include "client/eval/ate.h"
+#include "core/slam/keyframe_policy.h"
 #include "tests/testing/temp_dir.h"
 #include "tests/unit/odometry/odometry_test_util.h"
 
@@ -20,9 +21,14 @@ namespace {
 using odometry_test::Circle;
 using odometry_test::MakeRenderer;
 
+// The tracker with the keyframe rule the pipeline gives it (core/slam/keyframe_policy.h).
+StatusOr<RgbdTracker> CreateTracker(const RgbdTrackerOptions& options) {
+  return RgbdTracker::Create(options, std::make_unique<KeyframePolicy>(KeyframePolicyOptions{}));
+}
+
 RgbdTracker MakeTracker(const CameraCalibration& camera, RgbdTrackerOptions options = {}) {
   options.camera = camera;
-  StatusOr<RgbdTracker> t = RgbdTracker::Create(options);
+  StatusOr<RgbdTracker> t = CreateTracker(options);
   EXPECT_TRUE(t.ok()) << t.status().ToString();
   return std::move(t).value();
 }
@@ -393,15 +399,14 @@ TEST(RgbdTrackerTest, RelocalisationIsPreferredToANewSegment) {
 
 TEST(RgbdTrackerTest, RejectsBadOptionsAndInput) {
   RgbdTrackerOptions bad;
-  EXPECT_EQ(RgbdTracker::Create(bad).status().code(), StatusCode::kInvalidArgument);  // no camera
+  EXPECT_EQ(CreateTracker(bad).status().code(), StatusCode::kInvalidArgument);  // no camera
   bad.camera = synth::DefaultSyntheticCamera(320, 240);
-  bad.min_inlier_fraction = 1.5;
-  EXPECT_EQ(RgbdTracker::Create(bad).status().code(), StatusCode::kInvalidArgument);
-  bad.min_inlier_fraction = 0.4;
+  // (min_inlier_fraction is the keyframe policy's now: keyframe_policy_test.)
+  EXPECT_EQ(RgbdTracker::Create(bad, nullptr).status().code(), StatusCode::kInvalidArgument);
   bad.reinitialise_after_lost = -1;
-  EXPECT_EQ(RgbdTracker::Create(bad).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(CreateTracker(bad).status().code(), StatusCode::kInvalidArgument);
   bad.reinitialise_after_lost = 0;  // disabled: valid
-  EXPECT_TRUE(RgbdTracker::Create(bad).ok());
+  EXPECT_TRUE(CreateTracker(bad).ok());
   RgbdTracker tracker = MakeTracker(synth::DefaultSyntheticCamera(320, 240));
   const cv::Mat grey(240, 320, CV_8UC1, cv::Scalar(0));
   EXPECT_EQ(tracker.Track(grey, Depth(cv::Mat(120, 160, CV_16UC1), 5000), 1).status().code(),

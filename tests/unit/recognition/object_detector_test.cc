@@ -1,7 +1,7 @@
 // DetectObjects on rendered keyframes of the synthetic room: every object is found from in
 // front and at an angle, at the centre of its front face; nothing is found where nothing is;
 // the homography sanity check and the input checks.
-#include "server/recognition/object_detector.h"
+#include "core/recognition/object_detector.h"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "server/recognition/keyframe_recognition.h"
+#include "core/recognition/keyframe_recognition.h"
 #include "tests/testing/synth/trajectory.h"
 #include "tests/unit/recognition/recognition_scene.h"
 

@@ -2,7 +2,7 @@
 // an outlier neither moves an instance nor is lost, the result does not depend on the input
 // order; confidence, seen times, sessions; and the observations of a synthetic lap fuse into
 // one instance per detected object at its face centre.
-#include "server/recognition/object_fusion.h"
+#include "core/recognition/object_fusion.h"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include <random>
 #include <vector>
 
-#include "server/recognition/keyframe_recognition.h"
+#include "core/recognition/keyframe_recognition.h"
 #include "tests/testing/synth/trajectory.h"
 #include "tests/unit/recognition/recognition_scene.h"
 

@@ -1,6 +1,6 @@
 // Object models from photos: the room's object photos build good views at any size and pixel
 // type; photos a user could not recognise anything from are INVALID_ARGUMENT with a reason.
-#include "server/recognition/object_model.h"
+#include "core/recognition/object_model.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // EstimateObjectPosition on exact points: the plane centre where a plane fits, the centre ray
 // at the points' median distance where it does not, the median without a ray.
-#include "server/recognition/object_position.h"
+#include "core/recognition/object_position.h"
 
 #include <gtest/gtest.h>
 

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "server/recognition/keyframe_recognition.h"
-#include "server/recognition/object_detector.h"
+#include "core/recognition/keyframe_recognition.h"
+#include "core/recognition/object_detector.h"
 #include "tests/testing/synth/texture.h"
 #include "tests/testing/synth/trajectory.h"
 #include "tests/unit/recognition/recognition_scene.h"

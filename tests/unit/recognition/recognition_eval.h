@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "common/status.h"
-#include "server/recognition/object_model.h"
+#include "core/recognition/object_model.h"
 #include "tests/testing/synth/trajectory.h"
 
 namespace semmap::recognition_test {

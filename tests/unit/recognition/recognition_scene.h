@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "common/camera.h"
-#include "server/odometry/feature_extractor.h"
-#include "server/recognition/object_model.h"
+#include "core/odometry/feature_extractor.h"
+#include "core/recognition/object_model.h"
 #include "tests/testing/synth/renderer.h"
 #include "tests/testing/synth/scene.h"
 

@@ -9,7 +9,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
-#include "server/recognition/keyframe_recognition.h"
+#include "core/recognition/keyframe_recognition.h"
 #include "tests/testing/synth/object_template.h"
 #include "tests/unit/recognition/recognition_scene.h"
 

@@ -1,4 +1,4 @@
-#include "server/slam/bow_vocabulary.h"
+#include "core/slam/bow_vocabulary.h"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // Keyframe feature codec: lossless round trip, clear errors for damaged bytes.
-#include "server/slam/feature_codec.h"
+#include "core/slam/feature_codec.h"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // KeyframeGraph: session order, neighbours, proximity search and per-component gauge fixing.
-#include "server/slam/keyframe_graph.h"
+#include "core/slam/keyframe_graph.h"
 
 #include <gtest/gtest.h>
 

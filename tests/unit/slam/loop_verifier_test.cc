@@ -1,4 +1,4 @@
-#include "server/slam/loop_verifier.h"
+#include "core/slam/loop_verifier.h"
 
 #include <gtest/gtest.h>
 
@@ -249,7 +249,7 @@ TEST(LoopVerifierTest, RejectsInconsistentInputs) {
 
 // A place in the default room (looking at the +x wall with the table and laptop), a query
 // 5.6 cm and 2 degrees off it, and neighbours one keyframe step (0.1 m sideways, 5 degrees of
-// turn: about KeyframeSelector's default motion norm) either side.
+// turn: about KeyframePolicy's default motion norm) either side.
 struct RoomRevisit {
   Eigen::Isometry3d T_world_candidate = RoomPose(0.5, 0.0, 0);
   Eigen::Isometry3d T_world_query = RoomPose(0.55, -0.025, 2);

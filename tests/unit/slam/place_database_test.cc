@@ -1,4 +1,4 @@
-#include "server/slam/place_database.h"
+#include "core/slam/place_database.h"
 
 #include <gtest/gtest.h>
 

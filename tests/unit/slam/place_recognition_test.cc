@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
-#include "server/odometry/feature_extractor.h"
-#include "server/slam/bow_vocabulary.h"
-#include "server/slam/place_database.h"
+#include "core/odometry/feature_extractor.h"
+#include "core/slam/bow_vocabulary.h"
+#include "core/slam/place_database.h"
 #include "tests/testing/temp_dir.h"
 #include "tests/unit/odometry/odometry_test_util.h"
 

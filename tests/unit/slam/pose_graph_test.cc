@@ -1,4 +1,4 @@
-#include "server/slam/pose_graph.h"
+#include "core/slam/pose_graph.h"
 
 #include <gtest/gtest.h>
 

@@ -1,13 +1,13 @@
 // SlamBackend on synthetic keyframes of the default room with known poses: a drifting lap is
 // closed by a verified loop and the optimised, stored poses land near the truth; a path that
 // never revisits gets no loop; frames follow their keyframes; corrections reach the session.
-#include "server/slam/slam_backend.h"
+#include "core/slam/slam_backend.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "server/slam/feature_codec.h"
+#include "core/slam/feature_codec.h"
 #include "storage/sqlite/sqlite_map_store.h"
 #include "tests/testing/temp_dir.h"
 #include "tests/unit/odometry/odometry_test_util.h"

@@ -1,0 +1,20 @@
+#include "common/name_validation.h"
+
+namespace semmap {
+
+Status ValidateName(const std::string& what, const std::string& name) {
+  if (name.empty()) return InvalidArgumentError(what + " name is empty");
+  if (name.size() > 128) return InvalidArgumentError(what + " name is longer than 128 bytes");
+  for (unsigned char c : name) {
+    if (c < 0x20 || c == 0x7f || c == '/') {
+      return InvalidArgumentError(what + " name '" + name +
+                                  "' contains a control character or '/'");
+    }
+  }
+  if (name.front() == ' ' || name.back() == ' ') {
+    return InvalidArgumentError(what + " name '" + name + "' has leading or trailing spaces");
+  }
+  return OkStatus();
+}
+
+}  // namespace semmap

@@ -1,0 +1,337 @@
+#include "core/mapping/map_layer_builder.h"
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "common/logging.h"
+#include "common/thread_launcher.h"
+#include "common/thread_priority.h"
+#include "common/time_util.h"
+#include "core/mapping/layer_frame.h"
+#include "core/mapping/stored_keyframe_clouds.h"
+
+namespace semmap {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+bool MovedBeyond(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double max_translation_m,
+                 double max_rotation_rad) {
+  const Eigen::Isometry3d delta = a.inverse() * b;
+  return delta.translation().norm() > max_translation_m ||
+         Eigen::AngleAxisd(delta.rotation()).angle() > max_rotation_rad;
+}
+
+int64_t NowUnixNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+Status MapLayerOptions::Validate() const {
+  SEMMAP_RETURN_IF_ERROR(occupancy.Validate().WithContext("map layers"));
+  SEMMAP_RETURN_IF_ERROR(cloud.Validate().WithContext("map layers"));
+  if (queue_capacity < 1 || queue_capacity > 100000) {
+    return InvalidArgumentError("map layers: queue capacity must be in [1, 100000]");
+  }
+  if (!std::isfinite(persist_interval_s) || persist_interval_s < 0 || persist_interval_s > 3600) {
+    return InvalidArgumentError("map layers: persist interval must be in [0, 3600] s");
+  }
+  if (!(rebuild_min_translation_m >= 0) || !(rebuild_min_rotation_rad >= 0) ||
+      !std::isfinite(rebuild_min_translation_m) || !std::isfinite(rebuild_min_rotation_rad)) {
+    return InvalidArgumentError("map layers: rebuild thresholds must be finite and >= 0");
+  }
+  return OkStatus();
+}
+
+StatusOr<std::unique_ptr<MapLayerBuilder>> MapLayerBuilder::Start(int64_t map_id,
+                                                                  std::string map_name,
+                                                                  MapLayerOptions options,
+                                                                  StorageWriter* writer,
+                                                                  bool restore, StageConfig stage) {
+  SEMMAP_RETURN_IF_ERROR(options.Validate());
+  if (writer == nullptr) return InvalidArgumentError("map layers need a storage writer");
+  SEMMAP_ASSIGN_OR_RETURN(OccupancyMap occupancy, OccupancyMap::Create(options.occupancy));
+  stage.name = "map '" + map_name + "' layers";
+  stage.queue_capacity = options.queue_capacity;
+  std::unique_ptr<MapLayerBuilder> builder(
+      new MapLayerBuilder(map_id, std::move(map_name), std::move(options), writer,
+                          std::move(occupancy), restore, std::move(stage)));
+  SEMMAP_RETURN_IF_ERROR(builder->PipelineStage::Start());
+  return builder;
+}
+
+MapLayerBuilder::MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerOptions options,
+                                 StorageWriter* writer, OccupancyMap occupancy, bool restore,
+                                 StageConfig stage)
+    : PipelineStage(std::move(stage)),
+      map_id_(map_id),
+      map_name_(std::move(map_name)),
+      options_(std::move(options)),
+      writer_(writer),
+      restore_(restore),
+      occupancy_(std::move(occupancy)),
+      last_persist_(Clock::now()),
+      writes_(writer, "map layers") {}
+
+MapLayerBuilder::~MapLayerBuilder() { Stop(); }
+
+Status MapLayerBuilder::AddKeyframeImages(int64_t session_id, int64_t seq, DecodedDepth depth,
+                                          cv::Mat colour, const CameraCalibration& camera) {
+  return Submit(KeyframeImages{session_id, seq, std::move(depth), std::move(colour), camera});
+}
+
+Status MapLayerBuilder::SetKeyframePoses(std::vector<KeyframePose> poses, bool correction) {
+  return Submit(PoseUpdate{std::move(poses), correction});
+}
+
+MapLayerStats MapLayerBuilder::stats() const {
+  const StageMetrics stage = metrics();
+  std::lock_guard lock(mutex_);
+  MapLayerStats out = stats_;
+  out.queue_high_water = stage.queue_high_water;
+  out.insert_ms = insert_ms_.Summarize();
+  out.rebuild_ms = rebuild_ms_.Summarize();
+  out.persist_ms = persist_ms_.Summarize();
+  return out;
+}
+
+void MapLayerBuilder::OnStart() {
+  if (restore_) Restore();
+}
+
+void MapLayerBuilder::Handle(map_layer_internal::Event& event) {
+  std::visit([this](auto& e) { Handle(e); }, event);
+}
+
+std::optional<MapLayerBuilder::Clock::time_point> MapLayerBuilder::OnIdle() {
+  // Catch up on the deferred work; blobs are written at most every persist_interval_s while
+  // keyframes keep arriving, so wake up for the next persist when the layers changed.
+  const auto interval = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(options_.persist_interval_s));
+  if (rebuild_needed_) Rebuild();
+  if (dirty_ && Clock::now() >= last_persist_ + interval) Persist();
+  if (!dirty_) return std::nullopt;
+  return last_persist_ + interval;
+}
+
+Status MapLayerBuilder::OnFlush() {
+  if (rebuild_needed_) Rebuild();
+  if (dirty_) Persist();
+  return writes_.WaitAndTakeError();
+}
+
+void MapLayerBuilder::OnStop() {
+  if (rebuild_needed_) Rebuild();
+  if (dirty_) Persist();
+  writes_.Wait();  // Stop() returns with the blobs committed
+}
+
+void MapLayerBuilder::Restore() {
+  // Damage in what is stored (a keyframe image, the origin) is logged and worked around: it must
+  // not fail the sessions that stream into the map afterwards.
+  std::vector<StoredKeyframeCloud> stored;
+  size_t damaged = 0;
+  const Status status = writer_->RunSync([&](MapStore& store) -> Status {
+    StatusOr<std::optional<Eigen::Vector3d>> origin = ReadLayerOrigin(store, map_id_, map_name_);
+    if (!origin.ok() && origin.status().code() == StatusCode::kDataLoss) {
+      LogWarning("map '{}' layers: {}; using the first keyframe's origin", map_name_,
+                 origin.status().ToString());
+      origin = FirstKeyframeLayerOrigin(store, map_name_);
+    }
+    SEMMAP_ASSIGN_OR_RETURN(origin_, std::move(origin));
+    SEMMAP_ASSIGN_OR_RETURN(stored,
+                            LoadKeyframeClouds(store, map_name_, "", options_.occupancy, &damaged));
+    return OkStatus();
+  });
+  if (damaged > 0) {
+    LogWarning(
+        "map '{}' layers: {} stored keyframe(s) have damaged images and are left out of the "
+        "restored layers",
+        map_name_, damaged);
+  }
+  if (!status.ok()) {
+    RecordError(status.WithContext("restoring from stored keyframes"));
+    return;
+  }
+  for (StoredKeyframeCloud& kf : stored) {
+    Entry& entry = entries_[{kf.session_id, kf.seq}];
+    entry.cloud = std::move(kf.cloud);
+    entry.T_world_keyframe = kf.T_world_keyframe;
+  }
+  if (stored.empty()) return;
+  rebuild_needed_ = true;
+  std::lock_guard lock(mutex_);
+  stats_.restored_keyframes = stored.size();
+}
+
+void MapLayerBuilder::Handle(KeyframeImages& images) {
+  const Clock::time_point t0 = Clock::now();
+  StatusOr<KeyframeCloud> cloud =
+      MakeKeyframeCloud(images.depth, images.colour, images.camera, options_.occupancy);
+  if (!cloud.ok()) {
+    RecordError(cloud.status().WithContext("keyframe seq " + std::to_string(images.seq)));
+    return;
+  }
+  Entry& entry = entries_[{images.session_id, images.seq}];
+  // A keyframe seen again (restored, then re-sent) replaces its cloud: the tree needs a rebuild.
+  if (entry.inserted) rebuild_needed_ = true;
+  entry.cloud = std::make_shared<const KeyframeCloud>(std::move(cloud).value());
+  entry.inserted = false;
+  InsertIfReady({images.session_id, images.seq}, entry);
+  if (entry.inserted) {
+    std::lock_guard lock(mutex_);
+    insert_ms_.Add(MillisecondsSince(t0));
+  }
+}
+
+void MapLayerBuilder::Handle(const PoseUpdate& update) {
+  for (const KeyframePose& pose : update.poses) {
+    const Key key{pose.session_id, pose.seq};
+    Entry& entry = entries_[key];
+    if (entry.inserted && entry.T_world_keyframe &&
+        MovedBeyond(*entry.T_world_keyframe, pose.T_world_keyframe,
+                    options_.rebuild_min_translation_m, options_.rebuild_min_rotation_rad)) {
+      rebuild_needed_ = true;
+    }
+    entry.T_world_keyframe = pose.T_world_keyframe;
+    if (!entry.inserted && entry.cloud) {
+      const Clock::time_point t0 = Clock::now();
+      InsertIfReady(key, entry);
+      if (entry.inserted) {
+        std::lock_guard lock(mutex_);
+        insert_ms_.Add(MillisecondsSince(t0));
+      }
+    }
+  }
+}
+
+std::optional<Eigen::Isometry3d> MapLayerBuilder::InLayerFrame(const Key& key, const Entry& entry) {
+  if (!origin_) {
+    origin_ = LayerOriginFor(entry.T_world_keyframe->translation());
+    if (!origin_->isZero()) {
+      LogInfo(
+          "map '{}' layers: built around ({:.0f}, {:.0f}, {:.0f}) m, where its first keyframe "
+          "is (exports give this layer_origin)",
+          map_name_, origin_->x(), origin_->y(), origin_->z());
+    }
+  }
+  const Eigen::Isometry3d T_layer_keyframe = LayerFromMap(*origin_) * *entry.T_world_keyframe;
+  if (WithinLayerReach(T_layer_keyframe, options_.occupancy)) return T_layer_keyframe;
+  if (!reach_warned_) {
+    reach_warned_ = true;
+    const Eigen::Vector3d t = entry.T_world_keyframe->translation();
+    LogWarning(
+        "map '{}' layers: keyframe seq {} at ({:.1f}, {:.1f}, {:.1f}) m is more than {:.0f} m "
+        "from the layers' origin ({:.0f}, {:.0f}, {:.0f}); keyframes that far are left out of "
+        "the 3D layers (they are stored and tracked; a finer --map-resolution reaches less far, "
+        "a coarser one further)",
+        map_name_, key.second, t.x(), t.y(), t.z(), LayerReachM(options_.occupancy), origin_->x(),
+        origin_->y(), origin_->z());
+  }
+  return std::nullopt;
+}
+
+void MapLayerBuilder::InsertIfReady(const Key& key, Entry& entry) {
+  if (!entry.cloud || !entry.T_world_keyframe) return;
+  dirty_ = true;
+  if (rebuild_needed_) return;  // the coming rebuild takes it in
+  const std::optional<Eigen::Isometry3d> T_layer_keyframe = InLayerFrame(key, entry);
+  if (!T_layer_keyframe) return;
+  const Status status = occupancy_.Insert(*entry.cloud, *T_layer_keyframe);
+  if (!status.ok()) {
+    RecordError(status);
+    return;
+  }
+  entry.inserted = true;
+  std::lock_guard lock(mutex_);
+  ++stats_.keyframes_inserted;
+}
+
+std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> MapLayerBuilder::PlacedClouds() {
+  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> out;
+  out.reserve(entries_.size());
+  uint64_t beyond = 0;
+  for (const auto& [key, entry] : entries_) {
+    if (!entry.cloud || !entry.T_world_keyframe) continue;
+    const std::optional<Eigen::Isometry3d> T_layer_keyframe = InLayerFrame(key, entry);
+    if (T_layer_keyframe) {
+      out.emplace_back(entry.cloud.get(), *T_layer_keyframe);
+    } else {
+      ++beyond;
+    }
+  }
+  std::lock_guard lock(mutex_);
+  stats_.keyframes_beyond_reach = beyond;
+  return out;
+}
+
+void MapLayerBuilder::Rebuild() {
+  const Clock::time_point t0 = Clock::now();
+  rebuild_needed_ = false;
+  StatusOr<OccupancyMap> rebuilt = OccupancyMap::Build(PlacedClouds(), options_.occupancy);
+  if (!rebuilt.ok()) {
+    RecordError(rebuilt.status().WithContext("rebuild"));
+    return;
+  }
+  occupancy_ = std::move(rebuilt).value();  // the swap: the old tree served until now
+  size_t inserted = 0;
+  for (auto& [key, entry] : entries_) {
+    entry.inserted = entry.cloud && entry.T_world_keyframe && InLayerFrame(key, entry).has_value();
+    if (entry.inserted) ++inserted;
+  }
+  dirty_ = true;
+  std::lock_guard lock(mutex_);
+  stats_.keyframes_inserted = inserted;
+  ++stats_.rebuilds;
+  rebuild_ms_.Add(MillisecondsSince(t0));
+}
+
+void MapLayerBuilder::Persist() {
+  const Clock::time_point t0 = Clock::now();
+  dirty_ = false;
+  last_persist_ = t0;
+  StatusOr<std::string> ot = occupancy_.SerializeOt();
+  if (!ot.ok()) {
+    RecordError(ot.status());
+    return;
+  }
+  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> placed = PlacedClouds();
+  StatusOr<PointCloudMap> cloud = PointCloudMap::Build(placed, options_.cloud);
+  if (!cloud.ok()) {
+    RecordError(cloud.status());
+    return;
+  }
+  StatusOr<std::string> pcd = cloud->ToPcd(/*binary=*/true);
+  if (!pcd.ok()) {
+    RecordError(pcd.status());
+    return;
+  }
+  size_t cloud_bytes = 0;
+  for (const auto& [kf, T] : placed) cloud_bytes += kf->points.size() * (12 + 3);
+  const double known_volume = occupancy_.KnownVolume();
+  {
+    std::lock_guard lock(mutex_);
+    stats_.octree_bytes = occupancy_.MemoryBytes();
+    stats_.keyframe_cloud_bytes = cloud_bytes;
+    stats_.cloud_points = cloud->size();
+    stats_.occupancy_blob_bytes = ot->size();
+    stats_.cloud_blob_bytes = pcd->size();
+    stats_.known_volume_m3 = known_volume;
+    ++stats_.persists;
+  }
+  WriteBatch batch;
+  const int64_t now = NowUnixNs();
+  batch.blobs.push_back({map_id_, kOccupancyBlobKind, std::move(ot).value(), now});
+  batch.blobs.push_back({map_id_, kCloudBlobKind, std::move(pcd).value(), now});
+  if (origin_)
+    batch.blobs.push_back({map_id_, kLayerOriginBlobKind, EncodeLayerOrigin(*origin_), now});
+  writes_.Submit(std::move(batch));
+  std::lock_guard lock(mutex_);
+  persist_ms_.Add(MillisecondsSince(t0));
+}
+
+}  // namespace semmap

@@ -1,0 +1,180 @@
+// The 3D layers of one map (OctoMap occupancy + coloured point cloud), built from keyframes on a
+// thread of their own, off the tracking path.
+//
+// Two producers feed it: the ingest sessions hand over each keyframe's images (colour + depth),
+// and the SLAM back end says where each keyframe is (when it joins the graph, and again after
+// every optimisation). A keyframe is inserted once both have arrived. Each keyframe's cloud is
+// kept in its own camera frame, so a correction only needs new poses: the occupancy tree is then
+// rebuilt from all clouds in the background (several corrections queued together cost one
+// rebuild) and swapped in when complete.
+//
+// Readers never see the live tree: the products are persisted as map blobs through the storage
+// writer ("octomap.ot", full-probability; "cloud.pcd", voxel-filtered binary PCD), at most every
+// persist_interval_s while keyframes arrive and on every Flush(), each time from a complete
+// tree and a cloud built from the current poses. Exports read those blobs (sha256-checked).
+//
+// A builder started for a map that already has keyframes (after a restart) first rebuilds its
+// layers from the stored keyframe images and corrected poses, on its own thread.
+//
+// The layers are built in the map's layer frame (layer_frame.h: the map frame shifted by a
+// per-map origin, persisted as the "layers.origin" blob); keyframes beyond the occupancy tree's
+// reach from that origin are left out of the layers, counted and logged once, never an error.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <future>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <opencv2/core/mat.hpp>
+#include <optional>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/latency_stats.h"
+#include "common/map_types.h"
+#include "common/pipeline_stage.h"
+#include "common/status.h"
+#include "core/mapping/occupancy_map.h"
+#include "core/mapping/point_cloud_map.h"
+#include "core/sensor/image_decoding.h"
+#include "storage/pending_writes.h"
+#include "storage/storage_writer.h"
+
+namespace semmap {
+
+// Blob kinds of the persisted layers.
+inline constexpr char kOccupancyBlobKind[] = "octomap.ot";
+inline constexpr char kCloudBlobKind[] = "cloud.pcd";
+
+struct MapLayerOptions {
+  bool enabled = true;  // false: no layers are built (sessions still map and close loops)
+  OccupancyMapOptions occupancy;
+  PointCloudMapOptions cloud;
+  size_t queue_capacity = 64;  // keyframe images and pose updates waiting for the thread
+  // Blob writes while keyframes keep arriving are at most this often (a Flush always writes).
+  double persist_interval_s = 2.0;
+  // A correction that moves no inserted keyframe by more than this causes no rebuild.
+  double rebuild_min_translation_m = 1e-3;
+  double rebuild_min_rotation_rad = 1e-3;
+
+  Status Validate() const;
+};
+
+struct MapLayerStats {
+  uint64_t keyframes_inserted = 0;
+  uint64_t keyframes_beyond_reach = 0;  // placed too far from the layer origin: left out
+  uint64_t restored_keyframes = 0;
+  uint64_t rebuilds = 0;
+  uint64_t persists = 0;
+  size_t queue_high_water = 0;
+  size_t octree_bytes = 0;          // OctoMap's estimate for the live tree
+  size_t keyframe_cloud_bytes = 0;  // clouds kept for rebuilds
+  size_t cloud_points = 0;          // in the last persisted cloud
+  size_t occupancy_blob_bytes = 0, cloud_blob_bytes = 0;
+  double known_volume_m3 = 0;  // free or occupied leaves of the tree
+  LatencySummary insert_ms;    // cloud + ray-casting per keyframe
+  LatencySummary rebuild_ms;   // full occupancy rebuild after a correction
+  LatencySummary persist_ms;   // serialise + cloud build + submit
+};
+
+namespace map_layer_internal {
+
+struct KeyframeImages {
+  int64_t session_id = 0, seq = 0;
+  DecodedDepth depth;
+  cv::Mat colour;
+  CameraCalibration camera;
+};
+struct PoseUpdate {
+  std::vector<KeyframePose> poses;
+  bool correction = false;
+};
+using Event = std::variant<KeyframeImages, PoseUpdate>;
+
+}  // namespace map_layer_internal
+
+// A pipeline stage (common/pipeline_stage.h): Flush, Stop and metrics() come from there.
+class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
+ public:
+  // `writer` must outlive the builder. With `restore`, the map's stored keyframes are loaded
+  // first (on the builder's thread). INVALID_ARGUMENT for bad options or a null writer;
+  // RESOURCE_EXHAUSTED when its thread cannot start. `stage`: as for ObjectMapper::Start.
+  static StatusOr<std::unique_ptr<MapLayerBuilder>> Start(int64_t map_id, std::string map_name,
+                                                          MapLayerOptions options,
+                                                          StorageWriter* writer, bool restore,
+                                                          StageConfig stage = {});
+  ~MapLayerBuilder() override;  // Stop(): processes what is queued, persists, joins
+
+  // A keyframe's images (colour BGR8 or mono8, 16-bit depth; the Mats are shared, not copied).
+  // Blocks only while the queue is full; UNAVAILABLE after Stop().
+  Status AddKeyframeImages(int64_t session_id, int64_t seq, DecodedDepth depth, cv::Mat colour,
+                           const CameraCalibration& camera);
+  // Poses from the back end: a new keyframe's (correction false) or the graph's after an
+  // optimisation (correction true; unchanged keyframes may be left out).
+  Status SetKeyframePoses(std::vector<KeyframePose> poses, bool correction);
+  // Flush(): waits until everything handed over so far is in the layers, a pending rebuild is
+  // done and the blobs are committed; returns the first error since the last Flush (bad
+  // images, storage).
+
+  MapLayerStats stats() const;
+  int64_t map_id() const { return map_id_; }
+
+ private:
+  using KeyframeImages = map_layer_internal::KeyframeImages;
+  using PoseUpdate = map_layer_internal::PoseUpdate;
+  using Key = std::pair<int64_t, int64_t>;  // (session_id, seq)
+  struct Entry {
+    std::shared_ptr<const KeyframeCloud> cloud;
+    std::optional<Eigen::Isometry3d> T_world_keyframe;
+    bool inserted = false;
+  };
+
+  MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerOptions options,
+                  StorageWriter* writer, OccupancyMap occupancy, bool restore, StageConfig stage);
+  // The stage's hooks (its thread).
+  void OnStart() override;
+  void Handle(map_layer_internal::Event& event) override;
+  std::optional<Clock::time_point> OnIdle() override;
+  Status OnFlush() override;
+  void OnStop() override;
+
+  void Restore();
+  void Handle(KeyframeImages& images);
+  void Handle(const PoseUpdate& update);
+  void InsertIfReady(const Key& key, Entry& entry);
+  // T_layer_keyframe of a placed entry; nullopt (logged once) when it is beyond the layers' reach.
+  std::optional<Eigen::Isometry3d> InLayerFrame(const Key& key, const Entry& entry);
+  void Rebuild();
+  void Persist();
+  // Every placed keyframe in the layer frame (those beyond reach left out and counted).
+  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> PlacedClouds();
+
+  const int64_t map_id_;
+  const std::string map_name_;
+  const MapLayerOptions options_;
+  StorageWriter* const writer_;
+  const bool restore_;
+
+  // Builder-thread state.
+  std::map<Key, Entry> entries_;
+  // Set by the restore or by the first placed keyframe.
+  std::optional<Eigen::Vector3d> origin_;
+  bool reach_warned_ = false;
+  OccupancyMap occupancy_;
+  bool rebuild_needed_ = false;
+  bool dirty_ = false;  // layers changed since the last persist
+  std::chrono::steady_clock::time_point last_persist_;
+
+  PendingWrites writes_;      // blob writes, and the errors Flush reports
+  mutable std::mutex mutex_;  // stats_, latency recorders
+  MapLayerStats stats_;
+  LatencyStats insert_ms_{"map_insert"};
+  LatencyStats rebuild_ms_{"map_rebuild"};
+  LatencyStats persist_ms_{"map_persist"};
+};
+
+}  // namespace semmap

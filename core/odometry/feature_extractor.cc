@@ -1,0 +1,177 @@
+#include "core/odometry/feature_extractor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <string>
+
+namespace semmap {
+
+Status FeatureExtractorOptions::Validate() const {
+  if (max_features < 10 || max_features > 100000) {
+    return InvalidArgumentError("features max_features must be in [10, 100000] (got " +
+                                std::to_string(max_features) + ")");
+  }
+  if (grid_cols < 1 || grid_rows < 1 || grid_cols * grid_rows > max_features) {
+    return InvalidArgumentError(
+        "features grid must be at least 1x1 with no more cells than "
+        "max_features");
+  }
+  if (!std::isfinite(oversample) || oversample < 1.0 || oversample > 10.0) {
+    return InvalidArgumentError("features oversample must be in [1, 10]");
+  }
+  if (orb_levels < 1 || orb_levels > 16) {
+    return InvalidArgumentError("features orb_levels must be in [1, 16]");
+  }
+  if (!std::isfinite(orb_scale_factor) || orb_scale_factor <= 1.0 || orb_scale_factor > 2.0) {
+    return InvalidArgumentError("features orb_scale_factor must be in (1, 2]");
+  }
+  if (orb_fast_threshold < 1 || orb_fast_threshold > 255) {
+    return InvalidArgumentError("features orb_fast_threshold must be in [1, 255]");
+  }
+  if (!std::isfinite(min_depth_m) || !std::isfinite(max_depth_m) || min_depth_m <= 0 ||
+      max_depth_m <= min_depth_m) {
+    return InvalidArgumentError("features depth range must satisfy 0 < min_depth_m < max_depth_m");
+  }
+  return OkStatus();
+}
+
+std::vector<cv::KeyPoint> BucketKeypoints(std::vector<cv::KeyPoint> keypoints, int width,
+                                          int height, int cols, int rows, int budget) {
+  if (budget <= 0 || keypoints.empty()) return {};
+  if (static_cast<int>(keypoints.size()) <= budget) return keypoints;
+  const int cells = cols * rows;
+  // Strongest first overall; stable so equal responses keep detection order (deterministic).
+  std::stable_sort(
+      keypoints.begin(), keypoints.end(),
+      [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
+  const int share = std::max(1, budget / cells);
+  std::vector<int> taken_in_cell(static_cast<size_t>(cells), 0);
+  std::vector<bool> taken(keypoints.size(), false);
+  std::vector<cv::KeyPoint> out;
+  out.reserve(static_cast<size_t>(budget));
+  for (size_t i = 0; i < keypoints.size() && static_cast<int>(out.size()) < budget; ++i) {
+    const cv::Point2f& p = keypoints[i].pt;
+    const int cx = std::clamp(static_cast<int>(p.x * cols / width), 0, cols - 1);
+    const int cy = std::clamp(static_cast<int>(p.y * rows / height), 0, rows - 1);
+    int& n = taken_in_cell[static_cast<size_t>(cy * cols + cx)];
+    if (n < share) {
+      ++n;
+      taken[i] = true;
+      out.push_back(keypoints[i]);
+    }
+  }
+  // Cells without enough texture leave budget over: give it to the strongest of the rest.
+  for (size_t i = 0; i < keypoints.size() && static_cast<int>(out.size()) < budget; ++i) {
+    if (!taken[i]) out.push_back(keypoints[i]);
+  }
+  return out;
+}
+
+StatusOr<FeatureExtractor> FeatureExtractor::Create(const FeatureExtractorOptions& options,
+                                                    const CameraCalibration& camera) {
+  SEMMAP_RETURN_IF_ERROR(options.Validate());
+  SEMMAP_RETURN_IF_ERROR(ValidateCalibration(camera));
+  const int candidates = static_cast<int>(std::ceil(options.max_features * options.oversample));
+  try {
+    cv::Ptr<cv::Feature2D> detector;
+    switch (options.type) {
+      case FeatureType::kOrb:
+        detector = cv::ORB::create(candidates, static_cast<float>(options.orb_scale_factor),
+                                   options.orb_levels, /*edgeThreshold=*/19, /*firstLevel=*/0,
+                                   /*WTA_K=*/2, cv::ORB::HARRIS_SCORE, /*patchSize=*/31,
+                                   options.orb_fast_threshold);
+        break;
+      case FeatureType::kSift:
+        detector = cv::SIFT::create(candidates);
+        break;
+      case FeatureType::kAkaze:
+        detector = cv::AKAZE::create();
+        break;
+    }
+    if (detector.empty()) return InternalError("could not create the feature detector");
+    return FeatureExtractor(options, camera, std::move(detector));
+  } catch (const cv::Exception& e) {
+    return InternalError(std::string("creating the feature detector: ") + e.what());
+  }
+}
+
+StatusOr<FrameFeatures> FeatureExtractor::Extract(const cv::Mat& image, const cv::Mat& depth_raw,
+                                                  double depth_scale) const {
+  if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
+    return InvalidArgumentError("feature extraction needs an 8-bit grey or BGR image");
+  }
+  if (image.cols != camera_.width || image.rows != camera_.height) {
+    return InvalidArgumentError(
+        "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+        ", the camera " + std::to_string(camera_.width) + "x" + std::to_string(camera_.height));
+  }
+  const bool with_depth = !depth_raw.empty();
+  if (with_depth) {
+    if (depth_raw.type() != CV_16UC1 || depth_raw.size() != image.size()) {
+      return InvalidArgumentError("depth must be CV_16UC1 of the image's size");
+    }
+    if (!std::isfinite(depth_scale) || depth_scale <= 0) {
+      return InvalidArgumentError("depth_scale must be positive");
+    }
+  }
+
+  FrameFeatures out;
+  try {
+    cv::Mat grey;
+    if (image.channels() == 3) {
+      cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+    } else {
+      grey = image;  // shares the pixels; nothing below writes to them
+    }
+    std::vector<cv::KeyPoint> candidates;
+    detector_->detect(grey, candidates);
+    out.keypoints = BucketKeypoints(std::move(candidates), grey.cols, grey.rows, options_.grid_cols,
+                                    options_.grid_rows, options_.max_features);
+    // compute() may drop keypoints it cannot describe (too near the border); the rest stay
+    // aligned with the descriptor rows.
+    detector_->compute(grey, out.keypoints, out.descriptors);
+  } catch (const cv::Exception& e) {
+    return InternalError(std::string("feature extraction: ") + e.what());
+  }
+
+  const size_t n = out.keypoints.size();
+  // Depth is registered to the raw (distorted) image: look it up before undistorting.
+  std::vector<double> z(n, 0.0);
+  if (with_depth) {
+    for (size_t i = 0; i < n; ++i) {
+      const int u = static_cast<int>(std::lround(out.keypoints[i].pt.x));
+      const int v = static_cast<int>(std::lround(out.keypoints[i].pt.y));
+      if (u < 0 || v < 0 || u >= depth_raw.cols || v >= depth_raw.rows) continue;
+      const uint16_t raw = depth_raw.at<uint16_t>(v, u);
+      if (raw == 0) continue;
+      const double metres = raw / depth_scale;
+      if (metres >= options_.min_depth_m && metres <= options_.max_depth_m) z[i] = metres;
+    }
+  }
+  if (camera_.HasDistortion() && n > 0) {
+    try {
+      std::vector<cv::Point2f> distorted(n), undistorted;
+      for (size_t i = 0; i < n; ++i) distorted[i] = out.keypoints[i].pt;
+      const cv::Matx33d K(camera_.fx, 0, camera_.cx, 0, camera_.fy, camera_.cy, 0, 0, 1);
+      const cv::Mat dist(1, 5, CV_64F, const_cast<double*>(camera_.distortion.data()));
+      cv::undistortPoints(distorted, undistorted, K, dist, cv::noArray(), K);
+      for (size_t i = 0; i < n; ++i) out.keypoints[i].pt = undistorted[i];
+    } catch (const cv::Exception& e) {
+      return InternalError(std::string("undistorting keypoints: ") + e.what());
+    }
+  }
+  out.points_camera.assign(n, Eigen::Vector3d::Zero());
+  out.has_depth.assign(n, false);
+  for (size_t i = 0; i < n; ++i) {
+    if (z[i] <= 0) continue;
+    const double u = out.keypoints[i].pt.x, v = out.keypoints[i].pt.y;
+    out.points_camera[i] = Eigen::Vector3d((u - camera_.cx) / camera_.fx * z[i],
+                                           (v - camera_.cy) / camera_.fy * z[i], z[i]);
+    out.has_depth[i] = true;
+  }
+  return out;
+}
+
+}  // namespace semmap

@@ -1,0 +1,34 @@
+// The question a front end asks for every placed frame: does it become a keyframe? Front ends
+// (RGB-D tracking, known poses, monocular VO next) describe the frame; the answer is the slam
+// module's KeyframePolicy (core/slam/keyframe_policy.h), the one place the rule lives. The
+// interface is here so that odometry does not depend on slam.
+#pragma once
+
+#include <Eigen/Geometry>
+
+namespace semmap {
+
+enum class KeyframeEvidence {
+  kSegmentStart,  // first frame of a map segment (session start, re-initialisation)
+  kTracked,       // tracked against the current reference keyframe / local map
+  kRelocalised,   // placed against an older keyframe after the reference failed
+  kKnownPose,     // the client gave the pose (KNOWN_POSES)
+};
+
+struct KeyframeCandidate {
+  KeyframeEvidence evidence = KeyframeEvidence::kTracked;
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+  bool has_depth = true;  // the frame's own depth (visual modes make keyframes only with it)
+  int num_inliers = 0;    // kTracked: inliers of the pose estimate
+};
+
+class KeyframeDecider {
+ public:
+  virtual ~KeyframeDecider() = default;
+  // True makes the frame the new reference keyframe. Called once per placed frame, in order.
+  virtual bool Decide(const KeyframeCandidate& candidate) = 0;
+  // The back end moved the map: the reference the rule measures from moved with it.
+  virtual void ApplyCorrection(const Eigen::Isometry3d& T_corrected_world) = 0;
+};
+
+}  // namespace semmap

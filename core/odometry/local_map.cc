@@ -1,0 +1,117 @@
+#include "core/odometry/local_map.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <cmath>
+
+namespace semmap {
+
+Status LocalMapOptions::Validate() const {
+  if (window_keyframes < 1 || window_keyframes > 100) {
+    return InvalidArgumentError("local map window_keyframes must be in [1, 100]");
+  }
+  if (!std::isfinite(depth_sigma_coefficient) || depth_sigma_coefficient <= 0 ||
+      !std::isfinite(pixel_sigma) || pixel_sigma <= 0 || !std::isfinite(octave_scale) ||
+      octave_scale < 1) {
+    return InvalidArgumentError("local map sigmas must be positive (octave_scale >= 1)");
+  }
+  if (!std::isfinite(min_found_ratio) || min_found_ratio < 0 || min_found_ratio > 1 ||
+      min_visible < 1) {
+    return InvalidArgumentError("local map min_found_ratio must be in [0, 1] and min_visible >= 1");
+  }
+  return OkStatus();
+}
+
+Eigen::Matrix3d LocalMap::ObservationInformation(const Eigen::Vector3d& p, int octave,
+                                                 const Eigen::Matrix3d& R_wc) const {
+  // X = ((u - cx) z / fx, (v - cy) z / fy, z): covariance J diag(su^2, sv^2, sz^2) J^T.
+  const double z = p.z();
+  const double s = options_.pixel_sigma * std::pow(options_.octave_scale, octave);
+  const double sz = options_.depth_sigma_coefficient * z * z;
+  Eigen::Matrix3d J;
+  J << z / camera_.fx, 0, p.x() / z, 0, z / camera_.fy, p.y() / z, 0, 0, 1;
+  const Eigen::Matrix3d cov =
+      J * Eigen::Vector3d(s * s, s * s, sz * sz).asDiagonal() * J.transpose();
+  const Eigen::Matrix3d info_camera = cov.inverse();
+  return R_wc * info_camera * R_wc.transpose();
+}
+
+void LocalMap::Fuse(MapPoint* mp, const Eigen::Vector3d& x, const Eigen::Matrix3d& info) const {
+  mp->information += info;
+  mp->information_position += info * x;
+  ++mp->num_depth_observations;
+  mp->position_world = mp->information.ldlt().solve(mp->information_position);
+}
+
+void LocalMap::AddKeyframe(int keyframe_id, const FrameFeatures& f, const Eigen::Isometry3d& T_wc,
+                           const std::vector<int>& point_of_keypoint) {
+  const Eigen::Matrix3d R = T_wc.linear();
+  std::vector<int> new_keypoints;
+  for (size_t k = 0; k < f.size(); ++k) {
+    const int m = point_of_keypoint.empty() ? -1 : point_of_keypoint[k];
+    if (m < 0) {
+      if (f.has_depth[k]) new_keypoints.push_back(static_cast<int>(k));
+      continue;
+    }
+    MapPoint& mp = points_[static_cast<size_t>(m)];
+    mp.last_keyframe = keyframe_id;
+    mp.octave = f.keypoints[k].octave;
+    f.descriptors.row(static_cast<int>(k)).copyTo(descriptors_.row(m));
+    if (f.has_depth[k]) {
+      Fuse(&mp, T_wc * f.points_camera[k],
+           ObservationInformation(f.points_camera[k], f.keypoints[k].octave, R));
+    }
+  }
+  // Keep the reliable points of the window, then append the new ones.
+  std::vector<MapPoint> kept;
+  std::vector<int> kept_rows;
+  kept.reserve(points_.size() + new_keypoints.size());
+  for (size_t i = 0; i < points_.size(); ++i) {
+    const MapPoint& mp = points_[i];
+    if (mp.last_keyframe <= keyframe_id - options_.window_keyframes) continue;
+    if (mp.visible >= options_.min_visible && mp.found < options_.min_found_ratio * mp.visible) {
+      continue;
+    }
+    kept.push_back(mp);
+    kept_rows.push_back(static_cast<int>(i));
+  }
+  cv::Mat descriptors(static_cast<int>(kept.size() + new_keypoints.size()), f.descriptors.cols,
+                      f.descriptors.type());
+  for (size_t r = 0; r < kept_rows.size(); ++r) {
+    descriptors_.row(kept_rows[r]).copyTo(descriptors.row(static_cast<int>(r)));
+  }
+  for (size_t n = 0; n < new_keypoints.size(); ++n) {
+    const size_t k = static_cast<size_t>(new_keypoints[n]);
+    MapPoint mp;
+    mp.last_keyframe = keyframe_id;
+    mp.octave = f.keypoints[k].octave;
+    Fuse(&mp, T_wc * f.points_camera[k],
+         ObservationInformation(f.points_camera[k], f.keypoints[k].octave, R));
+    kept.push_back(mp);
+    f.descriptors.row(static_cast<int>(k))
+        .copyTo(descriptors.row(static_cast<int>(kept_rows.size() + n)));
+  }
+  points_ = std::move(kept);
+  descriptors_ = descriptors;
+}
+
+void LocalMap::CountTracked(const std::vector<int>& visible, const std::vector<int>& found) {
+  for (int i : visible) ++points_[static_cast<size_t>(i)].visible;
+  for (int i : found) ++points_[static_cast<size_t>(i)].found;
+}
+
+void LocalMap::Transform(const Eigen::Isometry3d& T) {
+  const Eigen::Matrix3d R = T.linear();
+  for (MapPoint& mp : points_) {
+    mp.position_world = T * mp.position_world;
+    mp.information = R * mp.information * R.transpose();
+    mp.information_position = mp.information * mp.position_world;
+  }
+}
+
+void LocalMap::Clear() {
+  points_.clear();
+  descriptors_ = cv::Mat();
+}
+
+}  // namespace semmap

@@ -1,0 +1,83 @@
+// The tracker's local map: 3D points (world frame) of the last few keyframes, each with the
+// descriptor of its latest observation and a position fused from every depth observation
+// (information-weighted: precise across the viewing ray, sigma_z ~ c z^2 along it).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/status.h"
+#include "core/sensor/frame_features.h"
+
+namespace semmap {
+
+struct LocalMapOptions {
+  // A point stays while one of the last this many keyframes observed it.
+  int window_keyframes = 8;
+  double depth_sigma_coefficient = 1.5e-3;  // sigma_z = c * z^2 (metres)
+  double pixel_sigma = 1.0;                 // keypoint sigma at octave 0
+  double octave_scale = 1.2;  // ... times this per pyramid level (features.orb_scale_factor)
+  // Points predicted in view at least min_visible times but matched in fewer than this
+  // fraction of those frames are dropped (bad depth, repeated texture).
+  double min_found_ratio = 0.25;
+  int min_visible = 8;
+
+  Status Validate() const;
+};
+
+struct MapPoint {
+  Eigen::Vector3d position_world = Eigen::Vector3d::Zero();
+  // Sums over the depth observations: information (world frame) and information * position.
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d information_position = Eigen::Vector3d::Zero();
+  int num_depth_observations = 0;
+  int last_keyframe = -1;  // id of the newest keyframe that observed it
+  int octave = 0;          // pyramid level of the newest observation
+  int visible = 0;         // frames that predicted it in view
+  int found = 0;           // ... and matched it as an inlier
+};
+
+class LocalMap {
+ public:
+  // `camera`: the intrinsics of the keypoints (for the observation information).
+  LocalMap(LocalMapOptions options, CameraCalibration camera)
+      : options_(options), camera_(camera) {}
+
+  size_t size() const { return points_.size(); }
+  const MapPoint& point(size_t i) const { return points_[i]; }
+  // Row i: the descriptor of point i.
+  const cv::Mat& descriptors() const { return descriptors_; }
+
+  // Keyframe `keyframe_id` (increasing) with `features` at T_world_camera. `point_of_keypoint`
+  // (empty, or one entry per keypoint): the map point each keypoint was matched to as an
+  // inlier, -1 for none. Matched keypoints refresh their point's descriptor and fuse their
+  // depth into it; unmatched keypoints with depth become new points. Points outside the
+  // keyframe window and unreliable points are dropped (indices change).
+  void AddKeyframe(int keyframe_id, const FrameFeatures& features,
+                   const Eigen::Isometry3d& T_world_camera,
+                   const std::vector<int>& point_of_keypoint);
+
+  // Bookkeeping of one tracked frame: points predicted in view and points found (inliers).
+  void CountTracked(const std::vector<int>& visible, const std::vector<int>& found);
+
+  // Re-expresses every point as T_new_world * point.
+  void Transform(const Eigen::Isometry3d& T_new_world);
+
+  void Clear();
+
+ private:
+  // Information (world frame) of a keypoint's back-projection.
+  Eigen::Matrix3d ObservationInformation(const Eigen::Vector3d& p_camera, int octave,
+                                         const Eigen::Matrix3d& R_world_camera) const;
+  void Fuse(MapPoint* point, const Eigen::Vector3d& p_world, const Eigen::Matrix3d& info) const;
+
+  LocalMapOptions options_;
+  CameraCalibration camera_;
+  std::vector<MapPoint> points_;
+  cv::Mat descriptors_;
+};
+
+}  // namespace semmap

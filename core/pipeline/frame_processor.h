@@ -1,0 +1,65 @@
+// Turns a decoded frame into a pose and a keyframe decision; one implementation per session mode.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <optional>
+
+#include "common/map_types.h"
+#include "common/status.h"
+#include "core/odometry/rgbd_tracker.h"
+#include "core/sensor/frame_features.h"
+#include "core/sensor/image_decoding.h"
+#include "core/slam/keyframe_policy.h"
+
+namespace semmap {
+
+struct DecodedFrame {
+  uint64_t seq = 0;
+  int64_t stamp_ns = 0;
+  cv::Mat colour;  // BGR8 or mono8
+  std::optional<DecodedDepth> depth;
+  std::optional<Eigen::Isometry3d> T_world_camera_prior;
+};
+
+struct FrameEstimate {
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+  bool is_keyframe = false;
+  bool lost = false;  // visual tracking failed: the pose is the last good one
+  // Tracking restarted after a sustained loss: this keyframe has no odometry to the previous
+  // ones (a new graph component until place recognition reconnects it).
+  bool new_segment = false;
+  // Visual modes: information of the pose w.r.t. the keyframe it was tracked from, and the
+  // new keyframe's features (for loop closure and storage) when is_keyframe.
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
+  std::shared_ptr<const FrameFeatures> keyframe_features;
+};
+
+class FrameProcessor {
+ public:
+  virtual ~FrameProcessor() = default;
+  virtual StatusOr<FrameEstimate> Process(const DecodedFrame& frame) = 0;
+  // The back end moved the map: continue in the corrected frame (visual modes).
+  virtual void ApplyCorrection(const Eigen::Isometry3d& /*T_corrected_world*/) {}
+};
+
+// KNOWN_POSES: the client's pose is the truth; only the keyframe decision is ours.
+class KnownPosesProcessor final : public FrameProcessor {
+ public:
+  explicit KnownPosesProcessor(KeyframePolicyOptions options) : keyframes_(options) {}
+  StatusOr<FrameEstimate> Process(const DecodedFrame& frame) override;
+
+ private:
+  KeyframePolicy keyframes_;
+};
+
+// UNIMPLEMENTED for modes this server cannot run yet (never a faked pose). Every mode decides
+// keyframes with a KeyframePolicy of `kf`; `tracker` configures RGBD sessions (its camera is
+// replaced by `camera`).
+StatusOr<std::unique_ptr<FrameProcessor>> MakeFrameProcessor(SessionMode mode,
+                                                             const KeyframePolicyOptions& kf,
+                                                             const RgbdTrackerOptions& tracker,
+                                                             const CameraCalibration& camera);
+
+}  // namespace semmap

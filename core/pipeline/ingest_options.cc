@@ -1,0 +1,33 @@
+#include "core/pipeline/ingest_options.h"
+
+#include <cmath>
+#include <string>
+
+namespace semmap {
+
+Status IngestOptions::Validate() const {
+  if (queue_capacity < 1 || queue_capacity > 1024) {
+    return InvalidArgumentError("ingest queue capacity must be in 1..1024 (got " +
+                                std::to_string(queue_capacity) + ")");
+  }
+  if (max_frame_bytes < 1024) {
+    return InvalidArgumentError("max frame bytes must be at least 1024");
+  }
+  if (max_streams < 1 || max_streams > 10000) {
+    return InvalidArgumentError("max concurrent ingest streams must be in 1..10000 (got " +
+                                std::to_string(max_streams) + ")");
+  }
+  if (!std::isfinite(idle_timeout_s) || idle_timeout_s < 0 || idle_timeout_s > 86400) {
+    return InvalidArgumentError("stream idle timeout must be in [0, 86400] s (0: none)");
+  }
+  SEMMAP_RETURN_IF_ERROR(keyframes.Validate().WithContext("keyframe options"));
+  SEMMAP_RETURN_IF_ERROR(layers.Validate());
+  SEMMAP_RETURN_IF_ERROR(objects.Validate());
+  // The camera is the session's: validate the rest against a plausible one.
+  RgbdTrackerOptions probe = tracker;
+  probe.camera = CameraCalibration{640, 480, 525, 525, 319.5, 239.5};
+  SEMMAP_RETURN_IF_ERROR(probe.Validate().WithContext("tracker options"));
+  return slam.Validate().WithContext("slam options");
+}
+
+}  // namespace semmap

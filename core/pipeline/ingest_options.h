@@ -1,0 +1,41 @@
+#pragma once
+
+#include <cstddef>
+
+#include "common/status.h"
+#include "common/thread_launcher.h"
+#include "core/mapping/map_layer_builder.h"
+#include "core/objects/object_mapper.h"
+#include "core/odometry/rgbd_tracker.h"
+#include "core/slam/keyframe_policy.h"
+#include "core/slam/slam_backend.h"
+
+namespace semmap {
+
+struct IngestOptions {
+  // Frames buffered per session between the network and the pipeline; the reader stops
+  // reading (HTTP/2 flow control pushes back on the client) while it is full.
+  size_t queue_capacity = 8;
+  // Largest accepted image payload of one frame (colour + depth bytes).
+  size_t max_frame_bytes = 48u << 20;
+  // Concurrent ingest streams; one more is refused with RESOURCE_EXHAUSTED (each holds two
+  // threads and up to queue_capacity frames).
+  size_t max_streams = 64;
+  // A stream that sends nothing for this long ends with DEADLINE_EXCEEDED, keeping what it
+  // sent (0: never).
+  double idle_timeout_s = 60;
+  // How sessions start their threads (empty: LaunchThread); tests make it fail.
+  ThreadLauncher launch_thread;
+  KeyframePolicyOptions keyframes;
+  // RGBD sessions' front end (its camera and keyframe options come from the session).
+  RgbdTrackerOptions tracker;
+  // The per-map back end of RGBD sessions (loop closure, pose graph).
+  SlamBackendOptions slam;
+  // The per-map 3D layers (occupancy, coloured cloud) built from keyframes with depth.
+  MapLayerOptions layers;
+  // Object recognition in RGBD sessions' keyframes and the map's object instances.
+  ObjectMapperOptions objects;
+  Status Validate() const;
+};
+
+}  // namespace semmap

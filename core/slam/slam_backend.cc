@@ -1,0 +1,473 @@
+#include "core/slam/slam_backend.h"
+
+#include <chrono>
+#include <cmath>
+#include <set>
+#include <string>
+#include <utility>
+
+#include "common/logging.h"
+#include "common/time_util.h"
+#include "core/slam/feature_codec.h"
+
+namespace semmap {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Poses closer than this are the same for storage (re-anchoring writes only real moves).
+bool Moved(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a.matrix() - b.matrix()).cwiseAbs().maxCoeff() > 1e-9;
+}
+
+}  // namespace
+
+Status SlamBackendOptions::Validate() const {
+  SEMMAP_RETURN_IF_ERROR(verifier.Validate().WithContext("slam verifier"));
+  SEMMAP_RETURN_IF_ERROR(pose_graph.Validate().WithContext("slam pose graph"));
+  if (queue_capacity < 1 || queue_capacity > 100000) {
+    return InvalidArgumentError("slam queue_capacity must be in 1..100000");
+  }
+  if (exclude_recent < 1) return InvalidArgumentError("slam exclude_recent must be >= 1");
+  if (!(local_radius_m >= 0) || !(local_max_angle_deg >= 0 && local_max_angle_deg <= 180)) {
+    return InvalidArgumentError("slam local_radius_m >= 0 and local_max_angle_deg in [0, 180]");
+  }
+  if (max_local_candidates < 0 || max_global_candidates < 0) {
+    return InvalidArgumentError("slam candidate counts must be >= 0");
+  }
+  if (!(min_global_score >= 0 && min_global_score <= 1) ||
+      !(min_global_score_ratio >= 0 && min_global_score_ratio <= 1)) {
+    return InvalidArgumentError("slam global score thresholds must be in [0, 1]");
+  }
+  if (xi_neighbours < 1) return InvalidArgumentError("slam xi_neighbours must be >= 1");
+  if (!(edge_sigma_floor_m >= 0) || !(edge_sigma_floor_rad >= 0)) {
+    return InvalidArgumentError("slam edge sigma floors must be >= 0");
+  }
+  if (!(max_loop_chi2 >= 0)) return InvalidArgumentError("slam max_loop_chi2 must be >= 0");
+  if (max_deferred_loops < 1) return InvalidArgumentError("slam max_deferred_loops must be >= 1");
+  if (!(consistent_loop_chi2 >= 0)) {
+    return InvalidArgumentError("slam consistent_loop_chi2 must be >= 0");
+  }
+  return OkStatus();
+}
+
+StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id) {
+  MapSnapshot snapshot;
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<MapInfo> maps, store.ListMaps());
+  std::string name;
+  for (const MapInfo& m : maps) {
+    if (m.id == map_id) name = m.name;
+  }
+  if (name.empty()) return NotFoundError("map id " + std::to_string(map_id) + " not found");
+  SEMMAP_ASSIGN_OR_RETURN(snapshot.sessions, store.ListSessions(name));
+  for (const SessionInfo& s : snapshot.sessions) {
+    SEMMAP_ASSIGN_OR_RETURN(std::vector<KeyframeRecord> keyframes,
+                            store.ListKeyframeFeatures(s.id));
+    for (KeyframeRecord& kf : keyframes) {
+      if (!kf.features.empty()) snapshot.keyframes.push_back(std::move(kf));
+    }
+    SEMMAP_ASSIGN_OR_RETURN(std::vector<TrajectoryPose> frames,
+                            store.GetTrajectory(s.id, /*keyframes_only=*/false));
+    for (TrajectoryPose& p : frames) snapshot.frames.emplace_back(s.id, p);
+  }
+  SEMMAP_ASSIGN_OR_RETURN(snapshot.links, store.ListLinks(map_id));
+  return snapshot;
+}
+
+StatusOr<std::unique_ptr<SlamBackend>> SlamBackend::Start(
+    int64_t map_id, SlamBackendOptions options, std::shared_ptr<const BowVocabulary> vocabulary,
+    StorageWriter* writer, const MapSnapshot* snapshot, KeyframePoseListener pose_listener,
+    StageConfig stage) {
+  SEMMAP_RETURN_IF_ERROR(options.Validate());
+  if (writer == nullptr) return InvalidArgumentError("slam back end needs a storage writer");
+  stage.name = "slam back end of map " + std::to_string(map_id);
+  stage.queue_capacity = options.queue_capacity;
+  // Its corrections keep the trackers right: normal priority, unlike the other map stages.
+  stage.background = false;
+  std::unique_ptr<SlamBackend> backend(
+      new SlamBackend(map_id, std::move(options), std::move(vocabulary), writer, std::move(stage)));
+  if (snapshot) SEMMAP_RETURN_IF_ERROR(backend->Restore(*snapshot).WithContext("map snapshot"));
+  backend->pose_listener_ = std::move(pose_listener);
+  SEMMAP_RETURN_IF_ERROR(backend->PipelineStage::Start());
+  return backend;
+}
+
+SlamBackend::SlamBackend(int64_t map_id, SlamBackendOptions options,
+                         std::shared_ptr<const BowVocabulary> vocabulary, StorageWriter* writer,
+                         StageConfig stage)
+    : PipelineStage(std::move(stage)),
+      map_id_(map_id),
+      options_(std::move(options)),
+      vocabulary_(std::move(vocabulary)),
+      writer_(writer),
+      writes_(writer, "slam back end") {}
+
+Status SlamBackend::Restore(const MapSnapshot& snapshot) {
+  for (const SessionInfo& s : snapshot.sessions) sessions_[s.id].camera = s.camera;
+  for (const KeyframeRecord& record : snapshot.keyframes) {
+    const auto session = sessions_.find(record.session_id);
+    if (session == sessions_.end()) continue;  // not of this map
+    SEMMAP_ASSIGN_OR_RETURN(FrameFeatures features,
+                            DecodeFeatures(record.features_format, record.features));
+    GraphKeyframe kf;
+    kf.session_id = record.session_id;
+    kf.seq = record.seq;
+    kf.T_world_keyframe = record.T_world_camera;
+    kf.features = std::make_shared<const FrameFeatures>(std::move(features));
+    kf.camera = &session->second.camera;
+    AddNode(std::move(kf));
+    ++stats_.restored_keyframes;
+  }
+  for (const LinkRecord& link : snapshot.links) {
+    const std::optional<int> from = graph_.Find(link.from_session_id, link.from_seq);
+    const std::optional<int> to = graph_.Find(link.to_session_id, link.to_seq);
+    if (!from || !to) continue;  // a keyframe without features (e.g. KNOWN_POSES)
+    GraphEdge edge;
+    edge.from = *from;
+    edge.to = *to;
+    edge.T_from_to = link.T_from_to;
+    edge.information = WithNoiseFloor(link.information);
+    edge.kind =
+        link.kind == LinkKind::kLoop ? PoseGraphEdgeKind::kLoop : PoseGraphEdgeKind::kOdometry;
+    graph_.AddEdge(edge);
+  }
+  // Each stored frame follows the latest keyframe at or before it, as it did when tracked.
+  std::map<int64_t, std::pair<int64_t, Eigen::Isometry3d>> last_keyframe;  // by session
+  for (const auto& [session_id, pose] : snapshot.frames) {
+    if (graph_.Find(session_id, pose.seq))
+      last_keyframe[session_id] = {pose.seq, pose.T_world_camera};
+    const auto anchor = last_keyframe.find(session_id);
+    if (anchor == last_keyframe.end()) continue;
+    anchors_[session_id].push_back(
+        {pose.seq, anchor->second.first, anchor->second.second.inverse() * pose.T_world_camera});
+  }
+  return OkStatus();
+}
+
+int SlamBackend::AddNode(GraphKeyframe keyframe) {
+  std::optional<BowVector> bow;
+  if (vocabulary_) {
+    // A keyframe the vocabulary cannot describe (e.g. SIFT features) is matched locally only.
+    StatusOr<BowVector> words = vocabulary_->Transform(keyframe.features->descriptors);
+    if (words.ok()) bow = std::move(words).value();
+  }
+  const int index = graph_.Add(std::move(keyframe));
+  // Add only fails for a malformed vector, which Transform never makes; such a keyframe would
+  // just not be found by place recognition.
+  if (bow && places_.Add(index, *bow).ok()) bow_[index] = std::move(*bow);
+  return index;
+}
+
+SlamBackend::~SlamBackend() { Stop(); }  // the worker drains what is queued first
+
+void SlamBackend::RegisterSession(int64_t session_id, const CameraCalibration& camera,
+                                  CorrectionCallback on_correction) {
+  std::lock_guard lock(mutex_);
+  SessionState& state = sessions_[session_id];
+  state.camera = camera;
+  state.on_correction = std::move(on_correction);
+}
+
+void SlamBackend::UnregisterSession(int64_t session_id) {
+  std::lock_guard lock(mutex_);
+  const auto it = sessions_.find(session_id);
+  if (it != sessions_.end()) it->second.on_correction = nullptr;
+}
+
+Status SlamBackend::AddKeyframe(KeyframeEvent event) {
+  if (!event.features) return InvalidArgumentError("keyframe event without features");
+  return Submit(Event(std::move(event)));
+}
+
+Status SlamBackend::AddFrame(FrameAnchorEvent event) { return Submit(Event(std::move(event))); }
+
+SlamBackendStats SlamBackend::stats() const {
+  const StageMetrics stage = metrics();
+  std::lock_guard lock(mutex_);
+  SlamBackendStats s = stats_;
+  s.queue_high_water = stage.queue_high_water;
+  s.keyframe_ms = keyframe_ms_.Summarize();
+  s.optimise_ms = optimise_ms_.Summarize();
+  return s;
+}
+
+void SlamBackend::Handle(Event& event) {
+  if (auto* kf = std::get_if<KeyframeEvent>(&event)) {
+    HandleKeyframe(*kf);
+  } else {
+    HandleFrame(std::get<FrameAnchorEvent>(event));
+  }
+}
+
+void SlamBackend::OnStop() {
+  SubmitPending();
+  writes_.Wait();
+}
+
+void SlamBackend::HandleFrame(const FrameAnchorEvent& event) {
+  anchors_[event.session_id].push_back({event.seq, event.anchor_seq, event.T_anchor_frame});
+  const std::optional<int> anchor = graph_.Find(event.session_id, event.anchor_seq);
+  if (!anchor) return;  // its keyframe never reached the graph (unregistered session)
+  // A frame tracked before its session applied the latest correction was stored in the old
+  // frame: move it now.
+  const Eigen::Isometry3d T = graph_.node(*anchor).T_world_keyframe * event.T_anchor_frame;
+  if (Moved(T, event.T_world_frame)) {
+    pending_.pose_updates.push_back({event.session_id, event.seq, T});
+  }
+}
+
+void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
+  const Clock::time_point t0 = Clock::now();
+  const CameraCalibration* camera = nullptr;
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = sessions_.find(event.session_id);
+    if (it == sessions_.end()) return;  // never registered: nothing to anchor it to
+    camera = &it->second.camera;
+  }
+  GraphKeyframe kf;
+  kf.session_id = event.session_id;
+  kf.seq = event.seq;
+  kf.features = event.features;
+  kf.camera = camera;
+  kf.T_world_keyframe = event.T_world_keyframe;
+  std::optional<int> previous;
+  if (event.previous_seq) previous = graph_.Find(event.session_id, *event.previous_seq);
+  // Chain on the back end's estimate of the previous keyframe: keyframes made before the
+  // tracker applied a correction still land in the corrected frame.
+  if (previous)
+    kf.T_world_keyframe = graph_.node(*previous).T_world_keyframe * event.T_previous_keyframe;
+  const int index = AddNode(std::move(kf));
+  if (pose_listener_) {
+    const GraphKeyframe& added = graph_.node(index);
+    pose_listener_({{added.session_id, added.seq, added.T_world_keyframe}}, false);
+  }
+  if (previous) {
+    GraphEdge edge;
+    edge.from = *previous;
+    edge.to = index;
+    edge.T_from_to = event.T_previous_keyframe;
+    edge.information = WithNoiseFloor(event.information);
+    edge.kind = PoseGraphEdgeKind::kOdometry;
+    graph_.AddEdge(edge);
+  }
+
+  std::optional<LoopClosureInfo> loop = CloseLoop(index);
+  if (loop) {
+    if (!LoopAgreesWithGraph(graph_.edges().back())) {
+      if (!OptimiseAndCorrect(/*check_new_loop=*/true)) loop.reset();  // taken back
+    } else if (++deferred_loops_ >= options_.max_deferred_loops) {
+      OptimiseAndCorrect();
+    }
+  }
+  SubmitPending();
+  std::lock_guard lock(mutex_);
+  ++stats_.keyframes;
+  if (loop) stats_.loops.push_back(*loop);
+  keyframe_ms_.Add(MillisecondsSince(t0));
+}
+
+std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query) {
+  const GraphKeyframe& q = graph_.node(query);
+  const auto query_words = bow_.find(query);
+  const BowVector* bow = query_words == bow_.end() ? nullptr : &query_words->second;
+  // Recent keyframes of the query's own session are odometry, not loops.
+  const auto skip = [&](int i) {
+    const GraphKeyframe& k = graph_.node(i);
+    return i == query || (k.session_id == q.session_id &&
+                          q.index_in_session - k.index_in_session < options_.exclude_recent);
+  };
+  // Poses are comparable only within one component (a session not yet linked to the others
+  // has a frame of its own): other components are reached by place recognition alone.
+  const auto skip_local = [&](int i) { return skip(i) || !graph_.SameComponent(i, query); };
+  std::vector<std::pair<int, bool>> candidates;  // (node, global)
+  std::set<int> seen;
+  for (int i : graph_.Near(q.T_world_keyframe, options_.local_radius_m,
+                           options_.local_max_angle_deg * kPi / 180.0, skip_local)) {
+    if (static_cast<int>(candidates.size()) >= options_.max_local_candidates) break;
+    if (seen.insert(i).second) candidates.emplace_back(i, false);
+  }
+  if (bow && options_.max_global_candidates > 0) {
+    double reference = 0;  // how similar the query is to what it certainly overlaps with
+    if (q.index_in_session > 0) {
+      for (int n : graph_.SessionNeighbours(query, 1)) {
+        const auto it = bow_.find(n);
+        if (it != bow_.end())
+          reference = std::max(reference, BowVocabulary::Score(*bow, it->second));
+      }
+    }
+    const double min_score =
+        std::max(options_.min_global_score, options_.min_global_score_ratio * reference);
+    int added = 0;
+    for (const PlaceMatch& m :
+         places_.Query(*bow, options_.max_global_candidates * 4,
+                       [&](int64_t id) { return skip(static_cast<int>(id)); })) {
+      if (added >= options_.max_global_candidates || m.score < min_score) break;
+      const int i = static_cast<int>(m.entry_id);
+      if (seen.insert(i).second) {
+        candidates.emplace_back(i, true);
+        ++added;
+      }
+    }
+  }
+  for (const auto& [candidate, global] : candidates) {
+    const GraphKeyframe& c = graph_.node(candidate);
+    std::vector<const FrameFeatures*> neighbours;
+    for (int n : graph_.SessionNeighbours(candidate, options_.xi_neighbours)) {
+      if (!skip(n)) neighbours.push_back(graph_.node(n).features.get());
+    }
+    StatusOr<LoopVerification> verified =
+        VerifyLoopCandidate(*q.features, *c.features, neighbours, *q.camera, options_.verifier);
+    std::lock_guard lock(mutex_);
+    ++stats_.candidates;
+    if (!verified.ok()) {
+      // Bad input (e.g. mixed descriptor types): not a loop, and not worth failing the
+      // session's Drain for; counted and logged at debug level.
+      ++stats_.failed_verifications;
+      LogDebug("{}: loop candidate not verified: {}", name(), verified.status().ToString());
+      continue;
+    }
+    if (!verified->accepted()) {
+      if (verified->decision == LoopDecision::kXiTooHigh) {
+        ++stats_.rejected_xi;
+      } else {
+        ++stats_.rejected_geometry;
+      }
+      continue;
+    }
+    ++stats_.loops_accepted;
+    GraphEdge edge;
+    edge.from = candidate;
+    edge.to = query;
+    edge.T_from_to = verified->T_candidate_query;
+    edge.information = WithNoiseFloor(verified->information);
+    edge.kind = PoseGraphEdgeKind::kLoop;
+    graph_.AddEdge(edge);
+
+    LinkRecord link;
+    link.map_id = map_id_;
+    link.kind = LinkKind::kLoop;
+    link.from_session_id = c.session_id;
+    link.from_seq = c.seq;
+    link.to_session_id = q.session_id;
+    link.to_seq = q.seq;
+    link.T_from_to = edge.T_from_to;
+    link.information = verified->information;
+    pending_.links.push_back(link);
+
+    LoopClosureInfo info;
+    info.query_session_id = q.session_id;
+    info.query_seq = q.seq;
+    info.candidate_session_id = c.session_id;
+    info.candidate_seq = c.seq;
+    info.global = global;
+    info.verification = *verified;
+    return info;
+  }
+  return std::nullopt;
+}
+
+Eigen::Matrix<double, 6, 6> SlamBackend::WithNoiseFloor(
+    const Eigen::Matrix<double, 6, 6>& information) const {
+  Eigen::Matrix<double, 6, 1> floor;
+  const double t = options_.edge_sigma_floor_m * options_.edge_sigma_floor_m;
+  const double r = options_.edge_sigma_floor_rad * options_.edge_sigma_floor_rad;
+  floor << t, t, t, r, r, r;
+  const Eigen::Matrix<double, 6, 6> m =
+      Eigen::Matrix<double, 6, 6>::Identity() + floor.asDiagonal() * information;
+  Eigen::Matrix<double, 6, 6> floored = information * m.inverse();
+  return 0.5 * (floored + floored.transpose());  // symmetric up to rounding
+}
+
+double SlamBackend::EdgeChi2(const GraphEdge& edge) const {
+  return PoseGraphEdgeResidual(edge, graph_.node(static_cast<int>(edge.from)).T_world_keyframe,
+                               graph_.node(static_cast<int>(edge.to)).T_world_keyframe)
+      .squaredNorm();
+}
+
+bool SlamBackend::LoopAgreesWithGraph(const GraphEdge& loop) {
+  if (options_.consistent_loop_chi2 <= 0) return false;
+  if (EdgeChi2(loop) > options_.consistent_loop_chi2) return false;
+  std::lock_guard lock(mutex_);
+  ++stats_.loops_already_consistent;
+  return true;
+}
+
+bool SlamBackend::OptimiseAndCorrect(bool check_new_loop) {
+  const Clock::time_point t0 = Clock::now();
+  std::vector<Eigen::Isometry3d> before(static_cast<size_t>(graph_.size()));
+  for (int i = 0; i < graph_.size(); ++i)
+    before[static_cast<size_t>(i)] = graph_.node(i).T_world_keyframe;
+  deferred_loops_ = 0;
+  StatusOr<PoseGraphResult> result = graph_.Optimise(options_.pose_graph);
+  if (!result.ok()) {
+    // The graph keeps its poses and the loop edge stays for the next optimisation: the map is
+    // as good as before, so the sessions go on; counted (session summary) and logged.
+    LogWarning("{}: pose-graph optimisation failed, poses kept: {}", name(),
+               result.status().ToString());
+    std::lock_guard lock(mutex_);
+    ++stats_.failed_optimisations;
+    return true;
+  }
+  if (check_new_loop) {
+    const double chi2 = EdgeChi2(graph_.edges().back());
+    if (options_.max_loop_chi2 > 0 && chi2 > options_.max_loop_chi2) {
+      for (int i = 0; i < graph_.size(); ++i) graph_.SetPose(i, before[static_cast<size_t>(i)]);
+      graph_.RemoveLastEdge();
+      pending_.links.pop_back();
+      std::lock_guard lock(mutex_);
+      --stats_.loops_accepted;
+      ++stats_.rejected_inconsistent;
+      return false;
+    }
+  }
+  if (pose_listener_) {
+    std::vector<KeyframePose> moved;
+    for (int i = 0; i < graph_.size(); ++i) {
+      const GraphKeyframe& k = graph_.node(i);
+      if (Moved(before[static_cast<size_t>(i)], k.T_world_keyframe)) {
+        moved.push_back({k.session_id, k.seq, k.T_world_keyframe});
+      }
+    }
+    if (!moved.empty()) pose_listener_(std::move(moved), true);
+  }
+  // Every keyframe and frame that moved is rewritten.
+  for (const auto& [session_id, anchors] : anchors_) {
+    for (const FrameAnchor& a : anchors) {
+      const std::optional<int> anchor = graph_.Find(session_id, a.anchor_seq);
+      if (!anchor) continue;
+      const Eigen::Isometry3d& T_old = before[static_cast<size_t>(*anchor)];
+      const Eigen::Isometry3d& T_new = graph_.node(*anchor).T_world_keyframe;
+      if (!Moved(T_old, T_new)) continue;
+      pending_.pose_updates.push_back({session_id, a.seq, T_new * a.T_anchor_frame});
+    }
+  }
+  std::lock_guard lock(mutex_);
+  // Each live session's tracker follows its latest keyframe.
+  for (auto& [session_id, state] : sessions_) {
+    if (!state.on_correction) continue;
+    const std::optional<int> last = graph_.LastOfSession(session_id);
+    if (!last) continue;
+    state.on_correction(graph_.node(*last).T_world_keyframe *
+                        before[static_cast<size_t>(*last)].inverse());
+  }
+  ++stats_.optimisations;
+  optimise_ms_.Add(MillisecondsSince(t0));
+  return true;
+}
+
+void SlamBackend::SubmitPending() {
+  if (pending_.empty()) return;
+  writes_.Submit(std::move(pending_));
+  pending_ = WriteBatch{};
+}
+
+Status SlamBackend::OnFlush() {
+  if (deferred_loops_ > 0) OptimiseAndCorrect();  // a finished session gets its final poses
+  SubmitPending();
+  return writes_.WaitAndTakeError();
+}
+
+}  // namespace semmap

@@ -1,0 +1,238 @@
+// The mapping / loop-closing back end of one map. Tracking threads hand it keyframes and frame
+// anchors through a bounded queue; its own worker thread adds keyframes to the graph, looks for
+// loop candidates (local: keyframes near the new one's pose; global: place recognition over a
+// bag of binary words), verifies them geometrically and by the neighbour ratio xi, optimises
+// the pose graph when a loop is accepted, and writes links and corrected poses through the
+// storage writer. Sessions learn about corrections through a callback and apply them on their
+// next frame, so the back end never blocks tracking on its own work.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <future>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <variant>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/latency_stats.h"
+#include "common/pipeline_stage.h"
+#include "common/status.h"
+#include "core/sensor/frame_features.h"
+#include "core/slam/bow_vocabulary.h"
+#include "core/slam/keyframe_graph.h"
+#include "core/slam/loop_verifier.h"
+#include "core/slam/place_database.h"
+#include "core/slam/pose_graph.h"
+#include "storage/pending_writes.h"
+#include "storage/storage_writer.h"
+
+namespace semmap {
+
+struct SlamBackendOptions {
+  LoopVerifierOptions verifier;
+  PoseGraphOptions pose_graph;
+  size_t queue_capacity = 512;  // events (keyframes and frame anchors) waiting for the worker
+  // Keyframes this close in a session's order are its odometry neighbours, never loop
+  // candidates (they are matched by tracking already).
+  int exclude_recent = 8;
+  // Local candidates: keyframes within this distance and viewing-angle difference.
+  double local_radius_m = 0.6;
+  double local_max_angle_deg = 40;
+  int max_local_candidates = 2;
+  // Global candidates: best place-recognition scores, kept when at least min_score and at
+  // least min_score_ratio times the score of the query against its previous keyframe.
+  int max_global_candidates = 3;
+  double min_global_score = 0.02;
+  double min_global_score_ratio = 0.6;
+  int xi_neighbours = 2;  // the candidate's session neighbours (each side) for N_n
+  // Noise floor added to every edge's covariance in the graph (metres, radians): tracking and
+  // loop solves report the precision of one PnP, not the model errors around it (depth bias,
+  // rolling shutter, calibration), and would make edges of a few millimetres' disagreement
+  // look like outliers. Stored links keep the raw information.
+  double edge_sigma_floor_m = 0.002;
+  double edge_sigma_floor_rad = 0.002;
+  // A loop whose whitened residual at the current poses is below this chi-square (6 degrees
+  // of freedom; 12.59 = 95 %) already agrees with the graph: it is kept as an edge, but the
+  // graph is not optimised for it at once (revisiting a well-mapped place costs no optimisation
+  // per keyframe); such loops are optimised in batches of max_deferred_loops and whenever a
+  // session ends (Drain). 0: optimise after every loop.
+  double consistent_loop_chi2 = 12.59;
+  int max_deferred_loops = 10;
+  // A new loop that still disagrees with the optimised graph by more than this chi-square (its
+  // whitened residual after the optimisation it caused) contradicts the odometry: it is taken
+  // back (edge, link and poses). True loops measured 0.0-3.9 after their optimisation (synthetic
+  // laps, a second session joining a map). 0 keeps every verified loop.
+  double max_loop_chi2 = 50;
+
+  Status Validate() const;
+};
+
+// A new keyframe from a session's tracker. Poses are in the tracker's frame at the time; the
+// back end re-anchors them on its own estimate of the previous keyframe.
+struct KeyframeEvent {
+  int64_t session_id = 0;
+  int64_t seq = 0;
+  Eigen::Isometry3d T_world_keyframe = Eigen::Isometry3d::Identity();
+  std::shared_ptr<const FrameFeatures> features;
+  // The odometry measurement from the session's previous keyframe (absent for its first).
+  std::optional<int64_t> previous_seq;
+  Eigen::Isometry3d T_previous_keyframe = Eigen::Isometry3d::Identity();
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
+};
+
+// Every frame's pose relative to the keyframe it was tracked from, so stored poses follow that
+// keyframe when the graph moves it. `T_world_frame` is what the session stored.
+struct FrameAnchorEvent {
+  int64_t session_id = 0;
+  int64_t seq = 0;
+  int64_t anchor_seq = 0;
+  Eigen::Isometry3d T_anchor_frame = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_world_frame = Eigen::Isometry3d::Identity();
+};
+
+// What a map already holds when its back end starts (after a server restart): the sessions,
+// their keyframes with features, every frame's stored pose and the links. Restored keyframes
+// take part in loop closure like new ones, so a new session can close loops with old ones.
+struct MapSnapshot {
+  std::vector<SessionInfo> sessions;
+  std::vector<KeyframeRecord> keyframes;  // with features; those without are not restored
+  std::vector<std::pair<int64_t, TrajectoryPose>> frames;  // (session_id, pose)
+  std::vector<LinkRecord> links;
+};
+
+// Reads a map's snapshot from the store (on the storage writer's thread, so it is consistent
+// with every write queued before).
+StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id);
+
+struct LoopClosureInfo {
+  int64_t query_session_id = 0, query_seq = 0;
+  int64_t candidate_session_id = 0, candidate_seq = 0;
+  bool global = false;  // found by place recognition (else by pose proximity)
+  LoopVerification verification;
+};
+
+struct SlamBackendStats {
+  uint64_t keyframes = 0;
+  uint64_t restored_keyframes = 0;
+  uint64_t candidates = 0;
+  uint64_t loops_accepted = 0;
+  uint64_t rejected_geometry = 0;
+  uint64_t rejected_xi = 0;
+  uint64_t optimisations = 0;
+  uint64_t failed_optimisations = 0;      // the solver failed: poses kept, the error surfaced
+  uint64_t failed_verifications = 0;      // a candidate the verifier could not judge (bad input)
+  uint64_t loops_already_consistent = 0;  // accepted, but needed no optimisation
+  uint64_t rejected_inconsistent = 0;     // verified, but contradicted by the optimised graph
+  size_t queue_high_water = 0;
+  LatencySummary keyframe_ms;  // worker time per keyframe (candidates, verification)
+  LatencySummary optimise_ms;
+  std::vector<LoopClosureInfo> loops;
+};
+
+// A pipeline stage (common/pipeline_stage.h): Stop and metrics() come from there; Drain is its
+// Flush.
+class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, FrameAnchorEvent>> {
+ public:
+  // The session's tracker moves to the corrected frame: T_corrected_world * T_world_x.
+  using CorrectionCallback = std::function<void(const Eigen::Isometry3d& T_corrected_world)>;
+  // Where keyframes are, for layers built from them (map layers): a new keyframe's pose when
+  // it joins the graph (correction false), and every moved keyframe's after an optimisation
+  // (correction true). Runs on the back end's thread; may block briefly (bounded queue).
+  using KeyframePoseListener =
+      std::function<void(std::vector<KeyframePose> poses, bool correction)>;
+
+  // `vocabulary` may be null: then only local (pose-proximity) candidates are searched.
+  // `writer` must outlive the back end.
+  // `snapshot` (may be null) is loaded before the worker starts; DATA_LOSS for features that
+  // do not decode. `pose_listener` may be empty. RESOURCE_EXHAUSTED when the thread cannot
+  // start. `stage`: as for ObjectMapper::Start.
+  static StatusOr<std::unique_ptr<SlamBackend>> Start(
+      int64_t map_id, SlamBackendOptions options, std::shared_ptr<const BowVocabulary> vocabulary,
+      StorageWriter* writer, const MapSnapshot* snapshot = nullptr,
+      KeyframePoseListener pose_listener = nullptr, StageConfig stage = {});
+  ~SlamBackend() override;  // drains queued events, then joins the worker
+
+  // Call before the session's first event. The callback runs on the back end's thread and
+  // must not block.
+  void RegisterSession(int64_t session_id, const CameraCalibration& camera,
+                       CorrectionCallback on_correction);
+  // No more corrections reach the session (its keyframes stay in the graph).
+  void UnregisterSession(int64_t session_id);
+
+  // Block only while the queue is full; UNAVAILABLE after Stop().
+  Status AddKeyframe(KeyframeEvent event);
+  Status AddFrame(FrameAnchorEvent event);
+  // Waits until every event added so far is processed and its writes are committed; returns
+  // the first error since the last Drain (storage, a failed optimisation).
+  Status Drain() { return Flush(); }
+
+  SlamBackendStats stats() const;
+  int64_t map_id() const { return map_id_; }
+
+ private:
+  using Event = std::variant<KeyframeEvent, FrameAnchorEvent>;
+  struct SessionState {
+    CameraCalibration camera;
+    CorrectionCallback on_correction;  // empty once unregistered
+  };
+  struct FrameAnchor {
+    int64_t seq = 0;
+    int64_t anchor_seq = 0;
+    Eigen::Isometry3d T_anchor_frame = Eigen::Isometry3d::Identity();
+  };
+
+  SlamBackend(int64_t map_id, SlamBackendOptions options,
+              std::shared_ptr<const BowVocabulary> vocabulary, StorageWriter* writer,
+              StageConfig stage);
+  // The stage's hooks (its thread).
+  void Handle(Event& event) override;
+  Status OnFlush() override;
+  void OnStop() override;
+  Status Restore(const MapSnapshot& snapshot);
+  // Graph node and place-database entry of a keyframe (no loop search).
+  int AddNode(GraphKeyframe keyframe);
+  void HandleKeyframe(KeyframeEvent& event);
+  void HandleFrame(const FrameAnchorEvent& event);
+  // Loop candidates for node `query`, verified; the first accepted one becomes a loop edge.
+  std::optional<LoopClosureInfo> CloseLoop(int query);
+  bool LoopAgreesWithGraph(const GraphEdge& loop);  // counts the ones that do
+  // (Sigma + floor)^-1 for Sigma = information^-1, computed without inverting a possibly
+  // singular information: I (Id + F I)^-1.
+  Eigen::Matrix<double, 6, 6> WithNoiseFloor(const Eigen::Matrix<double, 6, 6>& information) const;
+  // With check_new_loop, the latest edge is a loop that is taken back (false) when the
+  // optimised graph still contradicts it (max_loop_chi2).
+  bool OptimiseAndCorrect(bool check_new_loop = false);
+  double EdgeChi2(const GraphEdge& edge) const;
+  void SubmitPending();  // submits the pending batch
+
+  const int64_t map_id_;
+  const SlamBackendOptions options_;
+  const std::shared_ptr<const BowVocabulary> vocabulary_;
+  StorageWriter* const writer_;
+  KeyframePoseListener pose_listener_;  // set before the worker starts
+
+  // Worker-thread state.
+  KeyframeGraph graph_;
+  PlaceDatabase places_;
+  std::map<int, BowVector> bow_;  // by node index (for the score against the previous one)
+  WriteBatch pending_;
+  std::map<int64_t, std::vector<FrameAnchor>> anchors_;  // by session, in seq order
+  int deferred_loops_ = 0;  // consistent loops added since the last optimisation
+
+  PendingWrites writes_;      // the worker's batches, and the errors Drain reports
+  mutable std::mutex mutex_;  // sessions_, stats_
+  // Entries are never erased: graph keyframes point at their session's camera.
+  std::map<int64_t, SessionState> sessions_;
+  SlamBackendStats stats_;
+  LatencyStats keyframe_ms_{"backend_keyframe"};
+  LatencyStats optimise_ms_{"optimise"};
+};
+
+}  // namespace semmap
