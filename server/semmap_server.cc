@@ -102,7 +102,14 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
     return objects.status().WithContext("loading the object database");
   }
   server->objects_ = std::move(objects).value();
-  server->ingest_ = std::make_unique<IngestManager>(server->writer_.get(), options.ingest,
+  IngestOptions ingest = options.ingest;
+  // Map stages restore through read connections of their own (WAL: next to the writer).
+  ingest.open_reader = [db_path, sqlite]() -> StatusOr<std::unique_ptr<MapStore>> {
+    SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SqliteMapStore> reader,
+                            SqliteMapStore::Open(db_path, sqlite));
+    return std::unique_ptr<MapStore>(std::move(reader));
+  };
+  server->ingest_ = std::make_unique<IngestManager>(server->writer_.get(), std::move(ingest),
                                                     std::move(vocabulary), server->objects_.get());
   server->service_ = std::make_unique<MapServiceImpl>(server->ingest_.get(), server->query_.get(),
                                                       server->objects_.get());

@@ -47,11 +47,9 @@ Status MapLayerOptions::Validate() const {
   return OkStatus();
 }
 
-StatusOr<std::unique_ptr<MapLayerBuilder>> MapLayerBuilder::Start(int64_t map_id,
-                                                                  std::string map_name,
-                                                                  MapLayerOptions options,
-                                                                  StorageWriter* writer,
-                                                                  bool restore, StageConfig stage) {
+StatusOr<std::unique_ptr<MapLayerBuilder>> MapLayerBuilder::Start(
+    int64_t map_id, std::string map_name, MapLayerOptions options, StorageWriter* writer,
+    StoreRestore restore, StageConfig stage) {
   SEMMAP_RETURN_IF_ERROR(options.Validate());
   if (writer == nullptr) return InvalidArgumentError("map layers need a storage writer");
   SEMMAP_ASSIGN_OR_RETURN(OccupancyMap occupancy, OccupancyMap::Create(options.occupancy));
@@ -59,20 +57,20 @@ StatusOr<std::unique_ptr<MapLayerBuilder>> MapLayerBuilder::Start(int64_t map_id
   stage.queue_capacity = options.queue_capacity;
   std::unique_ptr<MapLayerBuilder> builder(
       new MapLayerBuilder(map_id, std::move(map_name), std::move(options), writer,
-                          std::move(occupancy), restore, std::move(stage)));
+                          std::move(occupancy), std::move(restore), std::move(stage)));
   SEMMAP_RETURN_IF_ERROR(builder->PipelineStage::Start());
   return builder;
 }
 
 MapLayerBuilder::MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerOptions options,
-                                 StorageWriter* writer, OccupancyMap occupancy, bool restore,
-                                 StageConfig stage)
+                                 StorageWriter* writer, OccupancyMap occupancy,
+                                 StoreRestore restore, StageConfig stage)
     : PipelineStage(std::move(stage)),
       map_id_(map_id),
       map_name_(std::move(map_name)),
       options_(std::move(options)),
       writer_(writer),
-      restore_(restore),
+      restore_(std::move(restore)),
       occupancy_(std::move(occupancy)),
       last_persist_(Clock::now()),
       writes_(writer, "map layers") {}
@@ -100,7 +98,7 @@ MapLayerStats MapLayerBuilder::stats() const {
 }
 
 void MapLayerBuilder::OnStart() {
-  if (restore_) Restore();
+  if (restore_.enabled) Restore();
 }
 
 void MapLayerBuilder::Handle(map_layer_internal::Event& event) {
@@ -135,7 +133,7 @@ void MapLayerBuilder::Restore() {
   // not fail the sessions that stream into the map afterwards.
   std::vector<StoredKeyframeCloud> stored;
   size_t damaged = 0;
-  const Status status = writer_->RunSync([&](MapStore& store) -> Status {
+  const Status status = ReadForRestore(restore_, *writer_, [&](MapStore& store) -> Status {
     StatusOr<std::optional<Eigen::Vector3d>> origin = ReadLayerOrigin(store, map_id_, map_name_);
     if (!origin.ok() && origin.status().code() == StatusCode::kDataLoss) {
       LogWarning("map '{}' layers: {}; using the first keyframe's origin", map_name_,

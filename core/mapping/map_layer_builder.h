@@ -41,6 +41,7 @@
 #include "core/mapping/occupancy_map.h"
 #include "core/mapping/point_cloud_map.h"
 #include "core/sensor/image_decoding.h"
+#include "storage/map_store_opener.h"
 #include "storage/pending_writes.h"
 #include "storage/storage_writer.h"
 
@@ -101,11 +102,13 @@ using Event = std::variant<KeyframeImages, PoseUpdate>;
 class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
  public:
   // `writer` must outlive the builder. With `restore`, the map's stored keyframes are loaded
-  // first (on the builder's thread). INVALID_ARGUMENT for bad options or a null writer;
-  // RESOURCE_EXHAUSTED when its thread cannot start. `stage`: as for ObjectMapper::Start.
+  // first, on the builder's thread (ahead of every event). INVALID_ARGUMENT for bad options
+  // or a null writer; RESOURCE_EXHAUSTED when its thread cannot start. `stage`: as for
+  // ObjectMapper::Start.
   static StatusOr<std::unique_ptr<MapLayerBuilder>> Start(int64_t map_id, std::string map_name,
                                                           MapLayerOptions options,
-                                                          StorageWriter* writer, bool restore,
+                                                          StorageWriter* writer,
+                                                          StoreRestore restore,
                                                           StageConfig stage = {});
   ~MapLayerBuilder() override;  // Stop(): processes what is queued, persists, joins
 
@@ -134,7 +137,8 @@ class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
   };
 
   MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerOptions options,
-                  StorageWriter* writer, OccupancyMap occupancy, bool restore, StageConfig stage);
+                  StorageWriter* writer, OccupancyMap occupancy, StoreRestore restore,
+                  StageConfig stage);
   // The stage's hooks (its thread).
   void OnStart() override;
   void Handle(map_layer_internal::Event& event) override;
@@ -157,7 +161,7 @@ class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
   const std::string map_name_;
   const MapLayerOptions options_;
   StorageWriter* const writer_;
-  const bool restore_;
+  const StoreRestore restore_;
 
   // Builder-thread state.
   std::map<Key, Entry> entries_;

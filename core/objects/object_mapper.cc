@@ -24,32 +24,30 @@ Status ObjectMapperOptions::Validate() const {
   return OkStatus();
 }
 
-StatusOr<std::unique_ptr<ObjectMapper>> ObjectMapper::Start(int64_t map_id,
-                                                            ObjectMapperOptions options,
-                                                            const ObjectCatalog* catalog,
-                                                            StorageWriter* writer, bool restore,
-                                                            StageConfig stage) {
+StatusOr<std::unique_ptr<ObjectMapper>> ObjectMapper::Start(
+    int64_t map_id, ObjectMapperOptions options, const ObjectCatalog* catalog,
+    StorageWriter* writer, StoreRestore restore, StageConfig stage) {
   SEMMAP_RETURN_IF_ERROR(options.Validate());
   if (catalog == nullptr || writer == nullptr) {
     return InvalidArgumentError("the object mapper needs a catalog and a storage writer");
   }
   stage.name = "objects of map " + std::to_string(map_id);
   stage.queue_capacity = options.queue_capacity;
-  std::unique_ptr<ObjectMapper> mapper(
-      new ObjectMapper(map_id, std::move(options), catalog, writer, restore, std::move(stage)));
+  std::unique_ptr<ObjectMapper> mapper(new ObjectMapper(map_id, std::move(options), catalog, writer,
+                                                        std::move(restore), std::move(stage)));
   SEMMAP_RETURN_IF_ERROR(mapper->PipelineStage::Start());
   return mapper;
 }
 
 ObjectMapper::ObjectMapper(int64_t map_id, ObjectMapperOptions options,
-                           const ObjectCatalog* catalog, StorageWriter* writer, bool restore,
-                           StageConfig stage)
+                           const ObjectCatalog* catalog, StorageWriter* writer,
+                           StoreRestore restore, StageConfig stage)
     : PipelineStage(std::move(stage)),
       map_id_(map_id),
       options_(std::move(options)),
       catalog_(catalog),
       writer_(writer),
-      restore_(restore),
+      restore_(std::move(restore)),
       writes_(writer, "objects") {}
 
 ObjectMapper::~ObjectMapper() { Stop(); }
@@ -85,7 +83,7 @@ ObjectMapperStats ObjectMapper::stats() const {
 }
 
 void ObjectMapper::OnStart() {
-  if (restore_) Restore();
+  if (restore_.enabled) Restore();
 }
 
 void ObjectMapper::Handle(object_mapper_internal::Event& event) {
@@ -116,7 +114,7 @@ void ObjectMapper::OnStop() {
 void ObjectMapper::Restore() {
   std::vector<ObjectObservation> stored;
   std::map<Key, Eigen::Isometry3d> poses;
-  const Status status = writer_->RunSync([&](MapStore& store) -> Status {
+  const Status status = ReadForRestore(restore_, *writer_, [&](MapStore& store) -> Status {
     SEMMAP_ASSIGN_OR_RETURN(stored, store.ListObjectObservations(map_id_));
     if (stored.empty()) return OkStatus();
     std::set<int64_t> sessions;

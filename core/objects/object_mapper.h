@@ -38,6 +38,7 @@
 #include "core/odometry/feature_extractor.h"
 #include "core/recognition/object_fusion.h"
 #include "core/sensor/image_decoding.h"
+#include "storage/map_store_opener.h"
 #include "storage/pending_writes.h"
 #include "storage/storage_writer.h"
 
@@ -93,7 +94,7 @@ class ObjectMapper final : public PipelineStage<object_mapper_internal::Event> {
   // configuration (synchronous mode, thread launcher); its name and queue capacity are set here.
   static StatusOr<std::unique_ptr<ObjectMapper>> Start(int64_t map_id, ObjectMapperOptions options,
                                                        const ObjectCatalog* catalog,
-                                                       StorageWriter* writer, bool restore,
+                                                       StorageWriter* writer, StoreRestore restore,
                                                        StageConfig stage = {});
   ~ObjectMapper() override;  // Stop()
 
@@ -122,7 +123,7 @@ class ObjectMapper final : public PipelineStage<object_mapper_internal::Event> {
   using Key = std::pair<int64_t, int64_t>;  // (session_id, seq)
 
   ObjectMapper(int64_t map_id, ObjectMapperOptions options, const ObjectCatalog* catalog,
-               StorageWriter* writer, bool restore, StageConfig stage);
+               StorageWriter* writer, StoreRestore restore, StageConfig stage);
   // The stage's hooks (its thread).
   void OnStart() override;
   void Handle(object_mapper_internal::Event& event) override;
@@ -142,7 +143,7 @@ class ObjectMapper final : public PipelineStage<object_mapper_internal::Event> {
   const ObjectMapperOptions options_;
   const ObjectCatalog* const catalog_;
   StorageWriter* const writer_;
-  const bool restore_;
+  const StoreRestore restore_;
 
   // Mapper-thread state.
   std::map<int64_t, std::deque<KeyframeItem>> recent_;  // per session: the last two keyframes

@@ -74,25 +74,24 @@ StatusOr<MapPipelines> IngestManager::PipelinesFor(const SessionInfo& session, b
                             "' is being changed by an administrative removal; try again shortly");
   }
   MapPipelines& p = pipelines_[session.map_id];
+  // Each stage starts from what the map holds (earlier sessions, before a restart), read on the
+  // stage's own thread ahead of its events, so neither this session nor the storage writer
+  // waits for it.
+  const StoreRestore from_store = Restore();
   if (!p.layers && options_.layers.enabled) {
-    // Started with the map's stored keyframes (earlier sessions, before a restart), read on the
-    // layers' own thread.
-    SEMMAP_ASSIGN_OR_RETURN(
-        p.layers, MapLayerBuilder::Start(session.map_id, session.map_name, options_.layers, writer_,
-                                         /*restore=*/true));
+    SEMMAP_ASSIGN_OR_RETURN(p.layers, MapLayerBuilder::Start(session.map_id, session.map_name,
+                                                             options_.layers, writer_, from_store));
   }
   if (!p.objects && objects_ && options_.objects.enabled) {
     SEMMAP_ASSIGN_OR_RETURN(p.objects, ObjectMapper::Start(session.map_id, options_.objects,
-                                                           objects_, writer_, /*restore=*/true));
+                                                           objects_, writer_, from_store));
   }
   if (!p.backend && visual) {
-    // What the map already holds joins the new graph, so new sessions close loops with it. Read
-    // on the writer's thread: consistent with queued writes.
-    MapSnapshot snapshot;
-    SEMMAP_RETURN_IF_ERROR(writer_->RunSync([&](MapStore& store) -> Status {
-      SEMMAP_ASSIGN_OR_RETURN(snapshot, ReadMapSnapshot(store, session.map_id));
-      return OkStatus();
-    }));
+    // What the map already holds joins the new graph, so new sessions close loops with it; this
+    // session's own keyframes arrive as events (the read may already see its first ones).
+    SlamRestore restore;
+    restore.from_store = from_store;
+    restore.skip_sessions = {session.id};
     SlamBackend::KeyframePoseListener listener;
     if (p.layers || p.objects) {
       listener = [layers = p.layers, objects = p.objects](std::vector<KeyframePose> poses,
@@ -108,10 +107,15 @@ StatusOr<MapPipelines> IngestManager::PipelinesFor(const SessionInfo& session, b
     }
     SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SlamBackend> backend,
                             SlamBackend::Start(session.map_id, options_.slam, vocabulary_, writer_,
-                                               &snapshot, std::move(listener)));
+                                               std::move(restore), std::move(listener)));
     p.backend = std::move(backend);
   }
   return p;
+}
+
+StoreRestore IngestManager::Restore() const {
+  return options_.open_reader ? StoreRestore::ThroughReader(options_.open_reader)
+                              : StoreRestore::ThroughWriter();
 }
 
 namespace {
@@ -168,13 +172,13 @@ void IngestManager::EndMapChange(int64_t map_id) {
 Status IngestManager::RebuildDerived(int64_t map_id, const std::string& map_name) {
   MapPipelines p;
   if (options_.layers.enabled) {
-    SEMMAP_ASSIGN_OR_RETURN(p.layers, MapLayerBuilder::Start(map_id, map_name, options_.layers,
-                                                             writer_, /*restore=*/true));
+    SEMMAP_ASSIGN_OR_RETURN(
+        p.layers, MapLayerBuilder::Start(map_id, map_name, options_.layers, writer_, Restore()));
     SEMMAP_RETURN_IF_ERROR(p.layers->Flush().WithContext("rebuilding the map layers"));
   }
   if (objects_ && options_.objects.enabled) {
-    SEMMAP_ASSIGN_OR_RETURN(p.objects, ObjectMapper::Start(map_id, options_.objects, objects_,
-                                                           writer_, /*restore=*/true));
+    SEMMAP_ASSIGN_OR_RETURN(
+        p.objects, ObjectMapper::Start(map_id, options_.objects, objects_, writer_, Restore()));
     SEMMAP_RETURN_IF_ERROR(p.objects->Flush().WithContext("re-placing the map's objects"));
   }
   // Kept for the map's next session (its back end is created then, from the store).

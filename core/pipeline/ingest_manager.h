@@ -47,6 +47,9 @@ class IngestManager {
  private:
   void ReapFinishedLocked();
   StatusOr<MapPipelines> PipelinesFor(const SessionInfo& session, bool visual);
+  // How stages read what a map holds: a read connection of their own when the options give
+  // one, else through the writer.
+  StoreRestore Restore() const;
   // Marks the map busy (new sessions on it fail UNAVAILABLE), checks no stream ingests into it,
   // and stops and drops its pipelines. FAILED_PRECONDITION when a stream is live.
   Status BeginMapChange(int64_t map_id, const std::string& map_name);

@@ -9,6 +9,7 @@
 #include "core/odometry/rgbd_tracker.h"
 #include "core/slam/keyframe_policy.h"
 #include "core/slam/slam_backend.h"
+#include "storage/map_store_opener.h"
 
 namespace semmap {
 
@@ -26,6 +27,9 @@ struct IngestOptions {
   double idle_timeout_s = 60;
   // How sessions start their threads (empty: LaunchThread); tests make it fail.
   ThreadLauncher launch_thread;
+  // Opens a read connection for a map stage's restore (on the stage's thread); empty: restores
+  // read through the storage writer, which waits meanwhile.
+  MapStoreOpener open_reader;
   KeyframePolicyOptions keyframes;
   // RGBD sessions' front end (its camera and keyframe options come from the session).
   RgbdTrackerOptions tracker;

@@ -53,7 +53,8 @@ Status SlamBackendOptions::Validate() const {
   return OkStatus();
 }
 
-StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id) {
+StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id,
+                                      const std::set<int64_t>& skip) {
   MapSnapshot snapshot;
   SEMMAP_ASSIGN_OR_RETURN(std::vector<MapInfo> maps, store.ListMaps());
   std::string name;
@@ -62,6 +63,7 @@ StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id) {
   }
   if (name.empty()) return NotFoundError("map id " + std::to_string(map_id) + " not found");
   SEMMAP_ASSIGN_OR_RETURN(snapshot.sessions, store.ListSessions(name));
+  std::erase_if(snapshot.sessions, [&](const SessionInfo& s) { return skip.count(s.id) != 0; });
   for (const SessionInfo& s : snapshot.sessions) {
     SEMMAP_ASSIGN_OR_RETURN(std::vector<KeyframeRecord> keyframes,
                             store.ListKeyframeFeatures(s.id));
@@ -78,7 +80,7 @@ StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id) {
 
 StatusOr<std::unique_ptr<SlamBackend>> SlamBackend::Start(
     int64_t map_id, SlamBackendOptions options, std::shared_ptr<const BowVocabulary> vocabulary,
-    StorageWriter* writer, const MapSnapshot* snapshot, KeyframePoseListener pose_listener,
+    StorageWriter* writer, SlamRestore restore, KeyframePoseListener pose_listener,
     StageConfig stage) {
   SEMMAP_RETURN_IF_ERROR(options.Validate());
   if (writer == nullptr) return InvalidArgumentError("slam back end needs a storage writer");
@@ -88,7 +90,9 @@ StatusOr<std::unique_ptr<SlamBackend>> SlamBackend::Start(
   stage.background = false;
   std::unique_ptr<SlamBackend> backend(
       new SlamBackend(map_id, std::move(options), std::move(vocabulary), writer, std::move(stage)));
-  if (snapshot) SEMMAP_RETURN_IF_ERROR(backend->Restore(*snapshot).WithContext("map snapshot"));
+  if (restore.snapshot) backend->Restore(*restore.snapshot);
+  restore.snapshot = nullptr;
+  backend->restore_ = std::move(restore);
   backend->pose_listener_ = std::move(pose_listener);
   SEMMAP_RETURN_IF_ERROR(backend->PipelineStage::Start());
   return backend;
@@ -104,21 +108,59 @@ SlamBackend::SlamBackend(int64_t map_id, SlamBackendOptions options,
       writer_(writer),
       writes_(writer, "slam back end") {}
 
-Status SlamBackend::Restore(const MapSnapshot& snapshot) {
-  for (const SessionInfo& s : snapshot.sessions) sessions_[s.id].camera = s.camera;
+void SlamBackend::OnStart() {
+  if (!restore_.from_store.enabled) return;
+  StatusOr<MapSnapshot> snapshot = MapSnapshot{};
+  const Status read = ReadForRestore(restore_.from_store, *writer_, [&](MapStore& store) {
+    snapshot = ReadMapSnapshot(store, map_id_, restore_.skip_sessions);
+    return snapshot.status();
+  });
+  if (!read.ok()) {
+    // The back end goes on with what the sessions send; the error reaches the next Drain.
+    RecordError(read.WithContext("restoring the map's keyframes"));
+    return;
+  }
+  Restore(*snapshot);
+}
+
+void SlamBackend::Restore(const MapSnapshot& snapshot) {
+  // Live sessions may register meanwhile: sessions_ and stats_ are touched under the lock only
+  // (map nodes do not move, so the cameras' addresses stay valid).
+  std::map<int64_t, const CameraCalibration*> cameras;
+  {
+    std::lock_guard lock(mutex_);
+    for (const SessionInfo& s : snapshot.sessions) {
+      SessionState& state = sessions_[s.id];
+      state.camera = s.camera;
+      cameras[s.id] = &state.camera;
+    }
+  }
+  uint64_t restored = 0, unreadable = 0;
   for (const KeyframeRecord& record : snapshot.keyframes) {
-    const auto session = sessions_.find(record.session_id);
-    if (session == sessions_.end()) continue;  // not of this map
-    SEMMAP_ASSIGN_OR_RETURN(FrameFeatures features,
-                            DecodeFeatures(record.features_format, record.features));
+    const auto session = cameras.find(record.session_id);
+    if (session == cameras.end()) continue;  // not of this map
+    StatusOr<FrameFeatures> features = DecodeFeatures(record.features_format, record.features);
+    if (!features.ok()) {
+      // Damage in one stored keyframe must not keep the map from loading: it is left out.
+      if (unreadable++ == 0) {
+        LogWarning("{}: stored keyframe seq {} of session {} left out: {}", name(), record.seq,
+                   record.session_id, features.status().ToString());
+      }
+      continue;
+    }
     GraphKeyframe kf;
     kf.session_id = record.session_id;
     kf.seq = record.seq;
     kf.T_world_keyframe = record.T_world_camera;
-    kf.features = std::make_shared<const FrameFeatures>(std::move(features));
-    kf.camera = &session->second.camera;
+    kf.features = std::make_shared<const FrameFeatures>(std::move(features).value());
+    kf.camera = session->second;
     AddNode(std::move(kf));
-    ++stats_.restored_keyframes;
+    ++restored;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    stats_.restored_keyframes += restored;
+    stats_.unreadable_keyframes += unreadable;
   }
   for (const LinkRecord& link : snapshot.links) {
     const std::optional<int> from = graph_.Find(link.from_session_id, link.from_seq);
@@ -143,7 +185,6 @@ Status SlamBackend::Restore(const MapSnapshot& snapshot) {
     anchors_[session_id].push_back(
         {pose.seq, anchor->second.first, anchor->second.second.inverse() * pose.T_world_camera});
   }
-  return OkStatus();
 }
 
 int SlamBackend::AddNode(GraphKeyframe keyframe) {

@@ -16,6 +16,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 #include <variant>
 #include <vector>
@@ -30,6 +31,7 @@
 #include "core/slam/loop_verifier.h"
 #include "core/slam/place_database.h"
 #include "core/slam/pose_graph.h"
+#include "storage/map_store_opener.h"
 #include "storage/pending_writes.h"
 #include "storage/storage_writer.h"
 
@@ -107,9 +109,19 @@ struct MapSnapshot {
   std::vector<LinkRecord> links;
 };
 
-// Reads a map's snapshot from the store (on the storage writer's thread, so it is consistent
-// with every write queued before).
-StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id);
+// Reads a map's snapshot from the store, leaving out the sessions in `skip` (live ones: their
+// keyframes reach the back end as events).
+StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id,
+                                      const std::set<int64_t>& skip = {});
+
+// What a back end starts from: nothing (a new map), a snapshot the caller read, or the store
+// (`from_store`: read on the back end's own thread, ahead of every event, so neither the
+// caller nor the storage writer waits for it), leaving out `skip_sessions`.
+struct SlamRestore {
+  const MapSnapshot* snapshot = nullptr;
+  StoreRestore from_store;
+  std::set<int64_t> skip_sessions;
+};
 
 struct LoopClosureInfo {
   int64_t query_session_id = 0, query_seq = 0;
@@ -121,6 +133,7 @@ struct LoopClosureInfo {
 struct SlamBackendStats {
   uint64_t keyframes = 0;
   uint64_t restored_keyframes = 0;
+  uint64_t unreadable_keyframes = 0;  // stored features that did not decode: left out
   uint64_t candidates = 0;
   uint64_t loops_accepted = 0;
   uint64_t rejected_geometry = 0;
@@ -150,13 +163,13 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
 
   // `vocabulary` may be null: then only local (pose-proximity) candidates are searched.
   // `writer` must outlive the back end.
-  // `snapshot` (may be null) is loaded before the worker starts; DATA_LOSS for features that
-  // do not decode. `pose_listener` may be empty. RESOURCE_EXHAUSTED when the thread cannot
-  // start. `stage`: as for ObjectMapper::Start.
+  // `restore` says what the map already holds (keyframes whose features do not decode are left
+  // out, logged and counted). `pose_listener` may be empty. RESOURCE_EXHAUSTED when the thread
+  // cannot start. `stage`: as for ObjectMapper::Start.
   static StatusOr<std::unique_ptr<SlamBackend>> Start(
       int64_t map_id, SlamBackendOptions options, std::shared_ptr<const BowVocabulary> vocabulary,
-      StorageWriter* writer, const MapSnapshot* snapshot = nullptr,
-      KeyframePoseListener pose_listener = nullptr, StageConfig stage = {});
+      StorageWriter* writer, SlamRestore restore = {}, KeyframePoseListener pose_listener = nullptr,
+      StageConfig stage = {});
   ~SlamBackend() override;  // drains queued events, then joins the worker
 
   // Call before the session's first event. The callback runs on the back end's thread and
@@ -192,10 +205,11 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
               std::shared_ptr<const BowVocabulary> vocabulary, StorageWriter* writer,
               StageConfig stage);
   // The stage's hooks (its thread).
+  void OnStart() override;
   void Handle(Event& event) override;
   Status OnFlush() override;
   void OnStop() override;
-  Status Restore(const MapSnapshot& snapshot);
+  void Restore(const MapSnapshot& snapshot);
   // Graph node and place-database entry of a keyframe (no loop search).
   int AddNode(GraphKeyframe keyframe);
   void HandleKeyframe(KeyframeEvent& event);
@@ -217,6 +231,7 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   const std::shared_ptr<const BowVocabulary> vocabulary_;
   StorageWriter* const writer_;
   KeyframePoseListener pose_listener_;  // set before the worker starts
+  SlamRestore restore_;                 // read by OnStart
 
   // Worker-thread state.
   KeyframeGraph graph_;

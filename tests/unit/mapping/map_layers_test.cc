@@ -138,8 +138,9 @@ class MapLayersTest : public ::testing::Test {
   }
 
   std::unique_ptr<MapLayerBuilder> StartBuilder(bool restore) {
-    StatusOr<std::unique_ptr<MapLayerBuilder>> builder =
-        MapLayerBuilder::Start(map_.id, map_.name, options_, writer_, restore);
+    StatusOr<std::unique_ptr<MapLayerBuilder>> builder = MapLayerBuilder::Start(
+        map_.id, map_.name, options_, writer_,
+        restore ? StoreRestore::ThroughReader(testing::ReaderOf(*store_)) : StoreRestore::None());
     EXPECT_TRUE(builder.ok()) << builder.status().ToString();
     return builder.ok() ? std::move(builder).value() : nullptr;
   }
@@ -247,7 +248,7 @@ TEST(MapLayerOptionsTest, Validate) {
   o = {};
   o.cloud.leaf_size_m = -1;
   EXPECT_EQ(o.Validate().code(), StatusCode::kInvalidArgument);
-  EXPECT_EQ(MapLayerBuilder::Start(1, "m", {}, nullptr, false).status().code(),
+  EXPECT_EQ(MapLayerBuilder::Start(1, "m", {}, nullptr, StoreRestore::None()).status().code(),
             StatusCode::kInvalidArgument);
 }
 

@@ -135,9 +135,13 @@ class SlamBackendTest : public ::testing::Test {
 
   std::unique_ptr<SlamBackend> Start(SlamBackendOptions options = {},
                                      std::shared_ptr<const BowVocabulary> vocabulary = nullptr,
-                                     const MapSnapshot* snapshot = nullptr) {
+                                     const MapSnapshot* snapshot = nullptr,
+                                     StoreRestore from_store = {}) {
+    SlamRestore restore;
+    restore.snapshot = snapshot;
+    restore.from_store = std::move(from_store);
     auto backend = SlamBackend::Start(session_.map_id, options, std::move(vocabulary),
-                                      writer_.get(), snapshot);
+                                      writer_.get(), std::move(restore));
     EXPECT_TRUE(backend.ok()) << backend.status().ToString();
     (*backend)->RegisterSession(session_.id, synth::DefaultSyntheticCamera(),
                                 [this](const Eigen::Isometry3d& T) {
@@ -264,6 +268,55 @@ TEST_F(SlamBackendTest, SessionAfterRestartJoinsTheStoredMap) {
   }
   std::printf("second session joined the stored map: max position error %.4f m\n", worst);
   EXPECT_LT(worst, 0.02);
+}
+
+// The server's way: the back end reads the stored map itself, on its own thread through a read
+// connection (the storage writer is not involved), ahead of the new session's events, leaving
+// out the live session's keyframes (they arrive as events).
+TEST_F(SlamBackendTest, RestoresFromTheStoreOnItsOwnThreadLeavingOutLiveSessions) {
+  const std::vector<Keyframe> lap = RenderKeyframes(12);
+  {
+    std::unique_ptr<SlamBackend> first = Start();
+    Stream(*first, lap, std::nullopt, /*drift=*/false);
+    ASSERT_TRUE(first->Drain().ok());
+  }
+  const int64_t first_session = session_.id;
+  ASSERT_TRUE(writer_
+                  ->RunSync([&](MapStore& s) -> Status {
+                    SessionInfo info = session_;
+                    info.name = "live";
+                    SEMMAP_ASSIGN_OR_RETURN(session_, s.CreateSession(info));
+                    return OkStatus();
+                  })
+                  .ok());
+  // The live session's first keyframe is committed before the restore reads.
+  Stream(*Start(), {lap.front()}, std::nullopt, /*drift=*/false);
+  ASSERT_TRUE(writer_->RunSync([](MapStore&) { return OkStatus(); }).ok());  // after the above
+  const std::string db = dir_.File("semmap.db");
+  MapStoreOpener opener = [db]() -> StatusOr<std::unique_ptr<MapStore>> {
+    SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SqliteMapStore> reader, SqliteMapStore::Open(db, {}));
+    return std::unique_ptr<MapStore>(std::move(reader));
+  };
+  SlamRestore restore;
+  restore.from_store = StoreRestore::ThroughReader(opener);
+  restore.skip_sessions = {session_.id};
+  auto second = SlamBackend::Start(session_.map_id, {}, nullptr, writer_.get(), restore);
+  ASSERT_TRUE(second.ok()) << second.status().ToString();
+  ASSERT_TRUE((*second)->Drain().ok());  // the barrier is behind the restore
+  const SlamBackendStats stats = (*second)->stats();
+  EXPECT_EQ(stats.restored_keyframes, lap.size());  // the first session's, not the live one's
+  EXPECT_EQ(stats.unreadable_keyframes, 0u);
+  EXPECT_NE(first_session, session_.id);
+
+  // A reader that cannot open: the back end still runs, and its first Drain says why.
+  restore.from_store = StoreRestore::ThroughReader(
+      []() -> StatusOr<std::unique_ptr<MapStore>> { return UnavailableError("no reader"); });
+  auto third = SlamBackend::Start(session_.map_id, {}, nullptr, writer_.get(), restore);
+  ASSERT_TRUE(third.ok());
+  const Status drained = (*third)->Drain();
+  EXPECT_EQ(drained.code(), StatusCode::kUnavailable);
+  EXPECT_NE(drained.message().find("restoring the map's keyframes"), std::string::npos);
+  EXPECT_TRUE((*third)->Drain().ok());
 }
 
 // The same drifting lap, but the odometry claims to be exact (and no noise floor relaxes it):
