@@ -39,6 +39,17 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
       args.GetInt("max-streams", static_cast<long long>(options->ingest.max_streams)));
   if (streams < 1) return semmap::InvalidArgumentError("--max-streams must be >= 1");
   options->ingest.max_streams = static_cast<size_t>(streams);
+  SEMMAP_ASSIGN_OR_RETURN(
+      long long open_maps,
+      args.GetInt("max-open-maps", static_cast<long long>(options->ingest.max_open_maps)));
+  SEMMAP_ASSIGN_OR_RETURN(
+      long long idle_maps,
+      args.GetInt("max-idle-maps", static_cast<long long>(options->ingest.max_idle_maps)));
+  if (open_maps < 1 || idle_maps < 0) {
+    return semmap::InvalidArgumentError("--max-open-maps must be >= 1 and --max-idle-maps >= 0");
+  }
+  options->ingest.max_open_maps = static_cast<size_t>(open_maps);
+  options->ingest.max_idle_maps = static_cast<size_t>(idle_maps);
   SEMMAP_ASSIGN_OR_RETURN(options->ingest.idle_timeout_s,
                           args.GetDouble("stream-idle-timeout-s", options->ingest.idle_timeout_s));
   SEMMAP_ASSIGN_OR_RETURN(long long max_mb, args.GetInt("max-message-mb", 64));
@@ -98,6 +109,12 @@ int main(int argc, char** argv) {
   args.AddFlag("listen", "HOST:PORT",
                "address to serve on (default 127.0.0.1:50051; port 0 picks one)");
   args.AddFlag("data-dir", "DIR", "where the SQLite database lives (default ./semmap-data)");
+  args.AddFlag("max-open-maps", "N",
+               "maps with a live pipeline at once (default 16); a session on one more map is "
+               "refused with RESOURCE_EXHAUSTED while all of them are streaming");
+  args.AddFlag("max-idle-maps", "N",
+               "maps kept warm after their last session ended (default 1); others are released "
+               "and restored from the store by their next session");
   args.AddFlag("log-level", "LEVEL", "debug, info, warning, error or off (default info; stderr)");
   args.AddFlag("sqlite-sync", "full|normal", "SQLite synchronous mode (default full)");
   args.AddFlag("queue-capacity", "N", "frames buffered per ingest stream (default 8)");

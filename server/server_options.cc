@@ -35,6 +35,7 @@ std::string ServerOptions::ToString() const {
       << " max_message_mb=" << max_message_mb << " shutdown_grace_s=" << shutdown_grace_s
       << " queue_capacity=" << ingest.queue_capacity
       << " max_frame_bytes=" << ingest.max_frame_bytes << " max_streams=" << ingest.max_streams
+      << " max_open_maps=" << ingest.max_open_maps << " max_idle_maps=" << ingest.max_idle_maps
       << " stream_idle_timeout_s=" << ingest.idle_timeout_s
       << " keyframe_min_motion=" << ingest.keyframes.min_motion
       << " keyframe_rotation_weight=" << ingest.keyframes.rotation_weight

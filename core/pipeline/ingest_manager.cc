@@ -32,7 +32,7 @@ StatusOr<std::shared_ptr<IngestSession>> IngestManager::Open(std::shared_ptr<Ing
   SEMMAP_ASSIGN_OR_RETURN(std::shared_ptr<IngestSession> session,
                           IngestSession::Start(std::move(sink), writer_, options_,
                                                [this](const SessionInfo& info, bool visual) {
-                                                 return PipelinesFor(info, visual);
+                                                 return PipelineFor(info, visual);
                                                }));
   sessions_.push_back(session);
   return session;
@@ -52,65 +52,75 @@ void IngestManager::Join() {
   }
   // Destroying the last reference joins the worker; a reactor may still hold one briefly.
   sessions.clear();
-  std::map<int64_t, MapPipelines> pipelines;
+  std::map<int64_t, OpenMap> maps;
   {
     std::lock_guard lock(pipelines_mutex_);
-    pipelines.swap(pipelines_);
+    maps.swap(pipelines_);
   }
-  // Back ends first: their last corrections still go to the layers.
-  for (auto& [map_id, p] : pipelines) {
-    if (p.backend) p.backend->Stop();  // drains, writes, joins
-  }
-  for (auto& [map_id, p] : pipelines) {
-    if (p.layers) p.layers->Stop();    // rebuilds if needed, persists, joins
-    if (p.objects) p.objects->Stop();  // decides the last keyframes, fuses, writes, joins
-  }
+  // Each stops its back end first: the last corrections still go to the layers and objects.
+  for (auto& [map_id, open] : maps) open.pipeline->Stop();
 }
 
-StatusOr<MapPipelines> IngestManager::PipelinesFor(const SessionInfo& session, bool visual) {
+StatusOr<std::shared_ptr<MapPipeline>> IngestManager::PipelineFor(const SessionInfo& session,
+                                                                  bool visual) {
   std::lock_guard lock(pipelines_mutex_);
   if (busy_maps_.count(session.map_id) != 0) {
     return UnavailableError("map '" + session.map_name +
                             "' is being changed by an administrative removal; try again shortly");
   }
-  MapPipelines& p = pipelines_[session.map_id];
-  // Each stage starts from what the map holds (earlier sessions, before a restart), read on the
-  // stage's own thread ahead of its events, so neither this session nor the storage writer
-  // waits for it.
-  const StoreRestore from_store = Restore();
-  if (!p.layers && options_.layers.enabled) {
-    SEMMAP_ASSIGN_OR_RETURN(p.layers, MapLayerBuilder::Start(session.map_id, session.map_name,
-                                                             options_.layers, writer_, from_store));
+  auto it = pipelines_.find(session.map_id);
+  if (it == pipelines_.end()) {
+    // Room for one more: idle maps go first (their state is persisted; a later session
+    // restores it), then the limit on open maps.
+    EvictIdleLocked(options_.max_idle_maps, options_.max_open_maps - 1);
+    if (pipelines_.size() >= options_.max_open_maps) {
+      return ResourceExhaustedError(
+          "the server has " + std::to_string(pipelines_.size()) +
+          " maps open with sessions streaming into each (semmapd --max-open-maps " +
+          std::to_string(options_.max_open_maps) + "); try again when one has ended");
+    }
+    // Each stage starts from what the map holds (earlier sessions, before a restart), read on
+    // its own thread ahead of its events, so neither this session nor the writer waits.
+    SEMMAP_ASSIGN_OR_RETURN(
+        std::unique_ptr<MapPipeline> created,
+        MakeMapPipeline(session.map_id, session.map_name, options_, writer_, objects_, Restore()));
+    it = pipelines_.emplace(session.map_id, OpenMap{std::move(created), 0}).first;
   }
-  if (!p.objects && objects_ && options_.objects.enabled) {
-    SEMMAP_ASSIGN_OR_RETURN(p.objects, ObjectMapper::Start(session.map_id, options_.objects,
-                                                           objects_, writer_, from_store));
-  }
-  if (!p.backend && visual) {
+  OpenMap& open = it->second;
+  open.last_used = ++use_counter_;
+  if (visual && !open.pipeline->backend()) {
     // What the map already holds joins the new graph, so new sessions close loops with it; this
     // session's own keyframes arrive as events (the read may already see its first ones).
     SlamRestore restore;
-    restore.from_store = from_store;
+    restore.from_store = Restore();
     restore.skip_sessions = {session.id};
-    SlamBackend::KeyframePoseListener listener;
-    if (p.layers || p.objects) {
-      listener = [layers = p.layers, objects = p.objects](std::vector<KeyframePose> poses,
-                                                          bool correction) {
-        // They refuse only once stopped (shutdown, a removal): nothing is left to build then,
-        // but it is said, not dropped silently.
-        const auto Report = [](const Status& status) {
-          if (!status.ok()) LogDebug("keyframe poses not delivered: {}", status.ToString());
-        };
-        if (objects) Report(objects->SetKeyframePoses(poses, correction));
-        if (layers) Report(layers->SetKeyframePoses(std::move(poses), correction));
-      };
-    }
-    SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SlamBackend> backend,
-                            SlamBackend::Start(session.map_id, options_.slam, vocabulary_, writer_,
-                                               std::move(restore), std::move(listener)));
-    p.backend = std::move(backend);
+    SEMMAP_RETURN_IF_ERROR(
+        open.pipeline->EnsureBackend(options_.slam, vocabulary_, writer_, std::move(restore))
+            .status());
   }
-  return p;
+  std::shared_ptr<MapPipeline> pipeline = open.pipeline;  // held: not idle
+  // Idle maps beyond the ones kept warm for their next session are released.
+  EvictIdleLocked(options_.max_idle_maps, options_.max_open_maps);
+  return pipeline;
+}
+
+void IngestManager::EvictIdleLocked(size_t keep_idle, size_t max_open) {
+  for (;;) {
+    std::vector<std::map<int64_t, OpenMap>::iterator> idle;
+    for (auto it = pipelines_.begin(); it != pipelines_.end(); ++it) {
+      if (it->second.pipeline.use_count() == 1) idle.push_back(it);
+    }
+    if (idle.empty() || (idle.size() <= keep_idle && pipelines_.size() <= max_open)) return;
+    auto oldest = *std::min_element(idle.begin(), idle.end(), [](const auto& a, const auto& b) {
+      return a->second.last_used < b->second.last_used;
+    });
+    // Persists what it holds and joins its threads (under the lock: a session for this map
+    // must not restore before the blobs are written).
+    LogInfo("map '{}': releasing its idle pipeline ({} maps open)",
+            oldest->second.pipeline->map_name(), pipelines_.size());
+    oldest->second.pipeline->Stop();
+    pipelines_.erase(oldest);
+  }
 }
 
 StoreRestore IngestManager::Restore() const {
@@ -118,19 +128,8 @@ StoreRestore IngestManager::Restore() const {
                               : StoreRestore::ThroughWriter();
 }
 
-namespace {
-
-// Stops a map's pipelines: the back end first (its last corrections go to the others).
-void StopPipelines(MapPipelines& p) {
-  if (p.backend) p.backend->Stop();
-  if (p.layers) p.layers->Stop();
-  if (p.objects) p.objects->Stop();
-}
-
-}  // namespace
-
 Status IngestManager::BeginMapChange(int64_t map_id, const std::string& map_name) {
-  MapPipelines taken;
+  std::shared_ptr<MapPipeline> taken;
   {
     std::lock_guard lock(pipelines_mutex_);
     if (busy_maps_.count(map_id) != 0) {
@@ -139,7 +138,7 @@ Status IngestManager::BeginMapChange(int64_t map_id, const std::string& map_name
     busy_maps_.insert(map_id);
   }
   {
-    // A session that created its row but has not reached PipelinesFor yet fails there (busy).
+    // A session that created its row but has not reached PipelineFor yet fails there (busy).
     std::unique_lock lock(mutex_);
     ReapFinishedLocked();
     const bool streaming = std::any_of(sessions_.begin(), sessions_.end(),
@@ -156,11 +155,11 @@ Status IngestManager::BeginMapChange(int64_t map_id, const std::string& map_name
     std::lock_guard lock(pipelines_mutex_);
     auto it = pipelines_.find(map_id);
     if (it != pipelines_.end()) {
-      taken = std::move(it->second);
+      taken = std::move(it->second.pipeline);
       pipelines_.erase(it);
     }
   }
-  StopPipelines(taken);  // they persist what they hold; the removal then replaces it
+  if (taken) taken->Stop();  // it persists what it holds; the removal then replaces it
   return OkStatus();
 }
 
@@ -170,20 +169,15 @@ void IngestManager::EndMapChange(int64_t map_id) {
 }
 
 Status IngestManager::RebuildDerived(int64_t map_id, const std::string& map_name) {
-  MapPipelines p;
-  if (options_.layers.enabled) {
-    SEMMAP_ASSIGN_OR_RETURN(
-        p.layers, MapLayerBuilder::Start(map_id, map_name, options_.layers, writer_, Restore()));
-    SEMMAP_RETURN_IF_ERROR(p.layers->Flush().WithContext("rebuilding the map layers"));
-  }
-  if (objects_ && options_.objects.enabled) {
-    SEMMAP_ASSIGN_OR_RETURN(
-        p.objects, ObjectMapper::Start(map_id, options_.objects, objects_, writer_, Restore()));
-    SEMMAP_RETURN_IF_ERROR(p.objects->Flush().WithContext("re-placing the map's objects"));
-  }
+  SEMMAP_ASSIGN_OR_RETURN(
+      std::unique_ptr<MapPipeline> rebuilt,
+      MakeMapPipeline(map_id, map_name, options_, writer_, objects_, Restore()));
+  SEMMAP_RETURN_IF_ERROR(
+      rebuilt->FlushConsumers().WithContext("rebuilding the map's layers and objects"));
   // Kept for the map's next session (its back end is created then, from the store).
   std::lock_guard lock(pipelines_mutex_);
-  pipelines_[map_id] = std::move(p);
+  pipelines_[map_id] = OpenMap{std::move(rebuilt), ++use_counter_};
+  EvictIdleLocked(options_.max_idle_maps, options_.max_open_maps);
   return OkStatus();
 }
 
@@ -241,6 +235,11 @@ StatusOr<RemovedCounts> IngestManager::RemoveMap(const std::string& map,
   LogInfo("removed map '{}' ({} sessions, {} frames, {} keyframes)", map, counts.sessions,
           counts.frames, counts.keyframes);
   return counts;
+}
+
+size_t IngestManager::open_maps() {
+  std::lock_guard lock(pipelines_mutex_);
+  return pipelines_.size();
 }
 
 size_t IngestManager::active_sessions() {

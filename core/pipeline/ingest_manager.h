@@ -1,6 +1,8 @@
-// Owns the live ingest sessions of a server and what runs per map they stream into (the SLAM back
-// end, the 3D layers): opens them, stops them all at shutdown and joins their worker threads off
-// the network threads.
+// Owns the live ingest sessions of a server and what runs per map they stream into (a
+// MapPipeline: the SLAM back end, the layers, the objects): opens them, keeps at most
+// max_open_maps pipelines (RESOURCE_EXHAUSTED beyond) and evicts idle ones beyond
+// max_idle_maps (their state persists; the next session restores it), stops them all at
+// shutdown and joins their worker threads off the network threads.
 #pragma once
 
 #include <functional>
@@ -14,6 +16,7 @@
 #include "common/cancel_check.h"
 #include "core/pipeline/ingest_options.h"
 #include "core/pipeline/ingest_session.h"
+#include "core/pipeline/map_pipeline.h"
 
 namespace semmap {
 
@@ -43,10 +46,15 @@ class IngestManager {
   // Waits for every session's worker to finish (call after BeginShutdown).
   void Join();
   size_t active_sessions();
+  size_t open_maps();
 
  private:
   void ReapFinishedLocked();
-  StatusOr<MapPipelines> PipelinesFor(const SessionInfo& session, bool visual);
+  StatusOr<std::shared_ptr<MapPipeline>> PipelineFor(const SessionInfo& session, bool visual);
+  // Stops and drops idle pipelines (no session holds them), least recently used first, until
+  // at most `keep_idle` idle ones and `max_open` in all are left (or none is idle). Called with
+  // pipelines_mutex_ held.
+  void EvictIdleLocked(size_t keep_idle, size_t max_open);
   // How stages read what a map holds: a read connection of their own when the options give
   // one, else through the writer.
   StoreRestore Restore() const;
@@ -68,9 +76,13 @@ class IngestManager {
   std::vector<std::shared_ptr<IngestSession>> sessions_;
   const std::shared_ptr<const BowVocabulary> vocabulary_;
   const ObjectCatalog* const objects_;
+  struct OpenMap {
+    std::shared_ptr<MapPipeline> pipeline;  // sessions hold references while they stream
+    uint64_t last_used = 0;                 // a counter, for least-recently-used eviction
+  };
   std::mutex pipelines_mutex_;
-  // They live as long as the server: a map's graph and layers keep growing across its sessions.
-  std::map<int64_t, MapPipelines> pipelines_;
+  std::map<int64_t, OpenMap> pipelines_;
+  uint64_t use_counter_ = 0;
   std::set<int64_t> busy_maps_;  // being changed by an administrative removal
 };
 

@@ -17,6 +17,15 @@ Status IngestOptions::Validate() const {
     return InvalidArgumentError("max concurrent ingest streams must be in 1..10000 (got " +
                                 std::to_string(max_streams) + ")");
   }
+  if (max_open_maps < 1 || max_open_maps > 10000) {
+    return InvalidArgumentError("max open maps must be in 1..10000 (got " +
+                                std::to_string(max_open_maps) + ")");
+  }
+  if (max_idle_maps > max_open_maps) {
+    return InvalidArgumentError("max idle maps (" + std::to_string(max_idle_maps) +
+                                ") must not exceed max open maps (" +
+                                std::to_string(max_open_maps) + ")");
+  }
   if (!std::isfinite(idle_timeout_s) || idle_timeout_s < 0 || idle_timeout_s > 86400) {
     return InvalidArgumentError("stream idle timeout must be in [0, 86400] s (0: none)");
   }

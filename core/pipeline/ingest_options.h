@@ -22,6 +22,12 @@ struct IngestOptions {
   // Concurrent ingest streams; one more is refused with RESOURCE_EXHAUSTED (each holds two
   // threads and up to queue_capacity frames).
   size_t max_streams = 64;
+  // Maps with a live pipeline (each runs up to three threads and holds its keyframes' clouds);
+  // a session on one more map is refused with RESOURCE_EXHAUSTED while all are streaming.
+  size_t max_open_maps = 16;
+  // Maps whose pipeline is kept after their last session ended, most recently used first (the
+  // next session on them starts warm); the others are released and restored on demand.
+  size_t max_idle_maps = 1;
   // A stream that sends nothing for this long ends with DEADLINE_EXCEEDED, keeping what it
   // sent (0: never).
   double idle_timeout_s = 60;

@@ -50,7 +50,7 @@ std::string GeneratedSessionName() {
 StatusOr<std::shared_ptr<IngestSession>> IngestSession::Start(std::shared_ptr<IngestSink> sink,
                                                               StorageWriter* writer,
                                                               IngestOptions options,
-                                                              MapPipelinesProvider pipelines) {
+                                                              MapPipelineProvider pipelines) {
   std::shared_ptr<IngestSession> session(
       new IngestSession(std::move(sink), writer, std::move(options), std::move(pipelines)));
   const ThreadLauncher& launch =
@@ -72,7 +72,7 @@ StatusOr<std::shared_ptr<IngestSession>> IngestSession::Start(std::shared_ptr<In
 }
 
 IngestSession::IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer,
-                             IngestOptions options, MapPipelinesProvider pipelines)
+                             IngestOptions options, MapPipelineProvider pipelines)
     : sink_(std::move(sink)),
       writer_(writer),
       options_(std::move(options)),
@@ -241,10 +241,8 @@ Status IngestSession::HandleStart(const IngestStartRequest& start) {
   map_id_.store(created.map_id);
   if (pipelines_) {
     const bool visual = *start.mode == SessionMode::kRgbd;
-    SEMMAP_ASSIGN_OR_RETURN(MapPipelines pipelines, pipelines_(created, visual));
-    if (visual) backend_ = std::move(pipelines.backend);
-    layers_ = std::move(pipelines.layers);
-    objects_ = std::move(pipelines.objects);
+    SEMMAP_ASSIGN_OR_RETURN(map_, pipelines_(created, visual));
+    if (visual) backend_ = map_->backend();
   }
   if (backend_) {
     backend_->RegisterSession(created.id, created.camera, [this](const Eigen::Isometry3d& T) {
@@ -333,10 +331,7 @@ Status IngestSession::HandleFrame(IngestFrame& frame,
     SEMMAP_RETURN_IF_ERROR(
         FeedBackend(decoded, estimate, previous_keyframe_seq, T_world_previous_keyframe));
   }
-  if (layers_ && estimate.is_keyframe && decoded.depth) {
-    SEMMAP_RETURN_IF_ERROR(FeedLayers(decoded, estimate));
-  }
-  if (objects_ && estimate.is_keyframe) SEMMAP_RETURN_IF_ERROR(FeedObjects(decoded, estimate));
+  if (map_ && estimate.is_keyframe) SEMMAP_RETURN_IF_ERROR(PublishKeyframe(decoded, estimate));
   ++frames_;
   if (estimate.is_keyframe) ++keyframes_;
   if (estimate.lost) ++lost_frames_;
@@ -466,28 +461,19 @@ Status IngestSession::FeedBackend(const DecodedFrame& frame, const FrameEstimate
   return backend_->AddFrame(anchor);
 }
 
-Status IngestSession::FeedLayers(const DecodedFrame& frame, const FrameEstimate& estimate) {
-  const int64_t seq = static_cast<int64_t>(frame.seq);
-  SEMMAP_RETURN_IF_ERROR(
-      layers_->AddKeyframeImages(session_->id, seq, *frame.depth, frame.colour, session_->camera));
+Status IngestSession::PublishKeyframe(const DecodedFrame& frame, const FrameEstimate& estimate) {
+  MapKeyframe keyframe;
+  keyframe.session_id = session_->id;
+  keyframe.seq = static_cast<int64_t>(frame.seq);
+  keyframe.stamp_ns = frame.stamp_ns;
+  keyframe.camera = session_->camera;
+  keyframe.colour = frame.colour;
+  keyframe.depth = frame.depth;
+  keyframe.features = estimate.keyframe_features;
   // Visual sessions' keyframes are placed by the back end (in its corrected frame); the others'
   // poses are final as they are.
-  if (backend_) return OkStatus();
-  return layers_->SetKeyframePoses({{session_->id, seq, estimate.T_world_camera}}, false);
-}
-
-Status IngestSession::FeedObjects(const DecodedFrame& frame, const FrameEstimate& estimate) {
-  const int64_t seq = static_cast<int64_t>(frame.seq);
-  if (estimate
-          .keyframe_features) {  // visual sessions: the tracker's features, the back end's poses
-    return objects_->AddKeyframe(session_->id, seq, frame.stamp_ns, estimate.keyframe_features,
-                                 session_->camera);
-  }
-  if (!frame.depth) return OkStatus();  // positions need depth
-  SEMMAP_RETURN_IF_ERROR(objects_->AddKeyframeImages(session_->id, seq, frame.stamp_ns,
-                                                     frame.colour, *frame.depth, session_->camera));
-  if (backend_) return OkStatus();
-  return objects_->SetKeyframePoses({{session_->id, seq, estimate.T_world_camera}}, false);
+  if (!backend_) keyframe.T_world_keyframe = estimate.T_world_camera;
+  return map_->PublishKeyframe(keyframe);
 }
 
 void IngestSession::ApplyPendingCorrection() {
@@ -509,58 +495,26 @@ std::optional<uint64_t> IngestSession::durable_seq() const {
 void IngestSession::Finish(Status status, SessionEndReason reason) {
   // The back end's writes for this session (loop links, re-anchored poses) land before the
   // final status too, so the stored trajectory is final when the client hears it.
-  uint64_t loop_closures = 0;
-  std::vector<LatencySummary> backend_stages;
-  if (backend_) {
-    backend_->UnregisterSession(session_->id);
-    Status drained = backend_->Drain();
-    if (status.ok() && !drained.ok()) status = drained;
-    const SlamBackendStats stats = backend_->stats();
-    for (const LoopClosureInfo& loop : stats.loops) {
-      if (loop.query_session_id == session_->id) ++loop_closures;
+  MapSessionReport map_report;
+  if (map_ && session_) {
+    const Status finished = map_->FinishSession(session_->id, &map_report);
+    if (status.ok() && !finished.ok()) status = finished;
+    if (map_report.backend) {
+      const SlamBackendStats& stats = *map_report.backend;
+      // One line per session for operators: what the map's back end did so far.
+      LogInfo(
+          "session '{}' of map '{}' ended: {} lost frames, {} restarts; map back end: {} "
+          "keyframes ({} restored), {} loop candidates, {} accepted, {} rejected by geometry, {} "
+          "by xi, {} taken back by the graph, {} optimisations ({} failed), queue high water {}",
+          session_->name, session_->map_name, lost_frames_, segments_, stats.keyframes,
+          stats.restored_keyframes, stats.candidates, stats.loops_accepted, stats.rejected_geometry,
+          stats.rejected_xi, stats.rejected_inconsistent, stats.optimisations,
+          stats.failed_optimisations, stats.queue_high_water);
     }
-    backend_stages = {stats.keyframe_ms, stats.optimise_ms};
-    // One line per session for operators: what the map's back end did so far.
-    LogInfo(
-        "session '{}' of map '{}' ended: {} lost frames, {} restarts; map back end: {} "
-        "keyframes ({} restored), {} loop candidates, {} accepted, {} rejected by geometry, {} by "
-        "xi, {} taken back by the graph, {} optimisations ({} failed), queue high water {}",
-        session_->name, session_->map_name, lost_frames_, segments_, stats.keyframes,
-        stats.restored_keyframes, stats.candidates, stats.loops_accepted, stats.rejected_geometry,
-        stats.rejected_xi, stats.rejected_inconsistent, stats.optimisations,
-        stats.failed_optimisations, stats.queue_high_water);
   }
-  if (objects_) {
-    // After the back end's drain, like the layers below.
-    Status ended = objects_->EndSession(session_->id);
-    Status flushed = ended.ok() ? objects_->Flush() : ended;
-    if (status.ok() && !flushed.ok()) status = flushed;
-    const ObjectMapperStats stats = objects_->stats();
-    backend_stages.push_back(stats.recognise_ms);
-    LogInfo(
-        "map '{}' objects: {} keyframes searched for {} types, {} detections, {} rejected by xi, "
-        "{} observations, {} instances",
-        session_->map_name, stats.keyframes_searched, stats.models, stats.detections,
-        stats.rejected_by_xi, stats.observations, stats.instances);
-  }
-  if (layers_) {
-    // After the back end's drain: its last corrections are queued to the layers already.
-    Status flushed = layers_->Flush();
-    if (status.ok() && !flushed.ok()) status = flushed;
-    const MapLayerStats stats = layers_->stats();
-    backend_stages.push_back(stats.insert_ms);
-    backend_stages.push_back(stats.rebuild_ms);
-    LogInfo(
-        "map '{}' layers: {} keyframes ({} restored), {} rebuilds, octree {:.1f} MiB for {:.1f} "
-        "m3 known ({:.0f} kB/m3), cloud {} points, blobs {:.1f} + {:.1f} MiB",
-        session_->map_name, stats.keyframes_inserted, stats.restored_keyframes, stats.rebuilds,
-        static_cast<double>(stats.octree_bytes) / (1 << 20), stats.known_volume_m3,
-        stats.known_volume_m3 > 0
-            ? static_cast<double>(stats.octree_bytes) / 1000.0 / stats.known_volume_m3
-            : 0.0,
-        stats.cloud_points, static_cast<double>(stats.occupancy_blob_bytes) / (1 << 20),
-        static_cast<double>(stats.cloud_blob_bytes) / (1 << 20));
-  }
+  // The map is the manager's again: idle once no session holds it.
+  backend_ = nullptr;
+  map_.reset();
   // Whatever was submitted is committed (or failed) before the client hears the final status,
   // so the summary's durable_seq is exact.
   {
@@ -583,7 +537,7 @@ void IngestSession::Finish(Status status, SessionEndReason reason) {
   summary.frames = frames_.load();
   summary.lost_frames = lost_frames_;
   summary.new_segments = segments_;
-  summary.loop_closures = loop_closures;
+  summary.loop_closures = map_report.loop_closures;
   summary.keyframes = keyframes_.load();
   summary.durable_seq = durable_seq();
   summary.duration_s =
@@ -594,7 +548,7 @@ void IngestSession::Finish(Status status, SessionEndReason reason) {
     summary.stages.push_back(storage_commit_ms_.Summarize());
   }
   summary.stages.push_back(frame_ms_.Summarize());
-  for (LatencySummary& stage : backend_stages) summary.stages.push_back(std::move(stage));
+  for (LatencySummary& stage : map_report.stages) summary.stages.push_back(std::move(stage));
   if (!status.ok() && summary.durable_seq) {
     status = Status(status.code(), status.message() + " (frames up to seq " +
                                        std::to_string(*summary.durable_seq) + " are stored)");

@@ -19,20 +19,16 @@
 #include "core/pipeline/frame_processor.h"
 #include "core/pipeline/ingest_options.h"
 #include "core/pipeline/ingest_types.h"
+#include "core/pipeline/map_pipeline.h"
 #include "core/slam/slam_backend.h"
 #include "storage/storage_writer.h"
 
 namespace semmap {
 
-// What runs per map, shared by its sessions (created on first use by the owner): the SLAM back
-// end of visual sessions and the 3D layers built from keyframes with depth. Either may be null.
-struct MapPipelines {
-  std::shared_ptr<SlamBackend> backend;
-  std::shared_ptr<MapLayerBuilder> layers;
-  std::shared_ptr<ObjectMapper> objects;
-};
-using MapPipelinesProvider =
-    std::function<StatusOr<MapPipelines>(const SessionInfo& session, bool visual)>;
+// The map pipeline a session streams into (created or found by the owner; a visual session's
+// has its SLAM back end running).
+using MapPipelineProvider =
+    std::function<StatusOr<std::shared_ptr<MapPipeline>>(const SessionInfo& session, bool visual)>;
 
 class IngestSession {
  public:
@@ -42,7 +38,7 @@ class IngestSession {
   static StatusOr<std::shared_ptr<IngestSession>> Start(std::shared_ptr<IngestSink> sink,
                                                         StorageWriter* writer,
                                                         IngestOptions options,
-                                                        MapPipelinesProvider pipelines = nullptr);
+                                                        MapPipelineProvider pipelines = nullptr);
   ~IngestSession();  // stops and joins the worker
   IngestSession(const IngestSession&) = delete;
   IngestSession& operator=(const IngestSession&) = delete;
@@ -66,7 +62,7 @@ class IngestSession {
 
  private:
   IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer, IngestOptions options,
-                MapPipelinesProvider pipelines);
+                MapPipelineProvider pipelines);
 
   // A message on its way from the decoder to the worker: frames carry their decoded images
   // (or the decoding error) next to the wire message, which keyframes store as received.
@@ -97,11 +93,9 @@ class IngestSession {
   // `reason` is how the stream ended as the worker saw it; a failing drain or write turns a
   // completed end into an error.
   void Finish(Status status, SessionEndReason reason);
+  // A keyframe goes to the map's consumers (layers, objects), after its write was submitted.
+  Status PublishKeyframe(const DecodedFrame& frame, const FrameEstimate& estimate);
   // Hands the frame (and its keyframe) to the back end, after its write was submitted.
-  // A keyframe goes to object recognition (features, or images for KNOWN_POSES sessions).
-  Status FeedObjects(const DecodedFrame& frame, const FrameEstimate& estimate);
-  // A keyframe with depth goes to the map layers.
-  Status FeedLayers(const DecodedFrame& frame, const FrameEstimate& estimate);
   Status FeedBackend(const DecodedFrame& frame, const FrameEstimate& estimate,
                      const std::optional<uint64_t>& previous_keyframe_seq,
                      const Eigen::Isometry3d& T_world_previous_keyframe);
@@ -117,10 +111,9 @@ class IngestSession {
   // Worker-thread state.
   std::optional<SessionInfo> session_;
   std::unique_ptr<FrameProcessor> processor_;
-  MapPipelinesProvider pipelines_;
-  std::shared_ptr<SlamBackend> backend_;
-  std::shared_ptr<MapLayerBuilder> layers_;
-  std::shared_ptr<ObjectMapper> objects_;
+  MapPipelineProvider pipelines_;
+  std::shared_ptr<MapPipeline> map_;  // released when the session finishes
+  SlamBackend* backend_ = nullptr;    // map_'s, for visual sessions
   // Corrections from the back end's thread, applied before the next frame is tracked.
   std::mutex correction_mutex_;
   std::optional<Eigen::Isometry3d> pending_correction_;

@@ -10,41 +10,12 @@
 #include "storage/sqlite/sqlite_map_store.h"
 #include "tests/testing/synthetic_frames.h"
 #include "tests/testing/temp_dir.h"
+#include "tests/unit/pipeline/recording_sink.h"
 
 namespace semmap {
 namespace {
 
-class RecordingSink final : public IngestSink {
- public:
-  void OnStarted(const SessionInfo& s) override {
-    std::lock_guard lock(mutex_);
-    started = s;
-  }
-  void OnAck(const FrameAckInfo& a) override {
-    std::lock_guard lock(mutex_);
-    acks.push_back(a);
-  }
-  void OnProgress(const IngestProgressInfo&) override {}
-  void OnQueueRoom() override {}
-  void OnFinished(const Status& s, const IngestSummaryInfo& summary) override {
-    std::lock_guard lock(mutex_);
-    final_status = s;
-    final_summary = summary;
-    done.notify_all();
-  }
-  Status Wait() {
-    std::unique_lock lock(mutex_);
-    done.wait(lock, [&] { return final_status.has_value(); });
-    return *final_status;
-  }
-
-  std::mutex mutex_;
-  std::condition_variable done;
-  std::optional<SessionInfo> started;
-  std::vector<FrameAckInfo> acks;
-  std::optional<Status> final_status;
-  IngestSummaryInfo final_summary;
-};
+using testing::RecordingSink;
 
 class IngestSessionTest : public ::testing::Test {
  protected:
