@@ -7,8 +7,9 @@
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
-#include <mutex>
 #include <optional>
+
+#include "common/thread_annotations.h"
 
 namespace semmap {
 
@@ -20,9 +21,9 @@ class BoundedQueue {
   BoundedQueue& operator=(const BoundedQueue&) = delete;
 
   // Blocks while full. Returns false (and drops nothing) once the queue is shut down.
-  bool Push(T item) {
-    std::unique_lock lock(mutex_);
-    not_full_.wait(lock, [&] { return shutdown_ || items_.size() < capacity_; });
+  bool Push(T item) SEMMAP_EXCLUDES(mutex_) {
+    MutexLock lock(mutex_);
+    while (!shutdown_ && items_.size() >= capacity_) not_full_.wait(lock);
     if (shutdown_) return false;
     items_.push_back(std::move(item));
     not_empty_.notify_one();
@@ -30,8 +31,8 @@ class BoundedQueue {
   }
 
   // Never blocks: false when full or shut down, and `item` is left untouched.
-  bool TryPush(T& item) {
-    std::lock_guard lock(mutex_);
+  bool TryPush(T& item) SEMMAP_EXCLUDES(mutex_) {
+    MutexLock lock(mutex_);
     if (shutdown_ || items_.size() >= capacity_) return false;
     items_.push_back(std::move(item));
     not_empty_.notify_one();
@@ -40,45 +41,48 @@ class BoundedQueue {
 
   // Blocks until an item arrives; after shutdown it still drains what was queued, then
   // returns nullopt.
-  std::optional<T> Pop() {
-    std::unique_lock lock(mutex_);
-    not_empty_.wait(lock, [&] { return shutdown_ || !items_.empty(); });
+  std::optional<T> Pop() SEMMAP_EXCLUDES(mutex_) {
+    MutexLock lock(mutex_);
+    while (!shutdown_ && items_.empty()) not_empty_.wait(lock);
     return PopLocked();
   }
 
   // Like Pop but gives up after `timeout` (returns nullopt).
   template <typename Rep, typename Period>
-  std::optional<T> PopFor(std::chrono::duration<Rep, Period> timeout) {
-    std::unique_lock lock(mutex_);
-    not_empty_.wait_for(lock, timeout, [&] { return shutdown_ || !items_.empty(); });
+  std::optional<T> PopFor(std::chrono::duration<Rep, Period> timeout) SEMMAP_EXCLUDES(mutex_) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    MutexLock lock(mutex_);
+    while (!shutdown_ && items_.empty()) {
+      if (not_empty_.wait_until(lock, deadline) == std::cv_status::timeout) break;
+    }
     return PopLocked();
   }
 
-  std::optional<T> TryPop() {
-    std::lock_guard lock(mutex_);
+  std::optional<T> TryPop() SEMMAP_EXCLUDES(mutex_) {
+    MutexLock lock(mutex_);
     return PopLocked();
   }
 
   // Wakes every waiter; later pushes fail, pops drain the remaining items.
-  void Shutdown() {
-    std::lock_guard lock(mutex_);
+  void Shutdown() SEMMAP_EXCLUDES(mutex_) {
+    MutexLock lock(mutex_);
     shutdown_ = true;
     not_empty_.notify_all();
     not_full_.notify_all();
   }
 
-  size_t size() const {
-    std::lock_guard lock(mutex_);
+  size_t size() const SEMMAP_EXCLUDES(mutex_) {
+    MutexLock lock(mutex_);
     return items_.size();
   }
   size_t capacity() const { return capacity_; }
-  bool is_shutdown() const {
-    std::lock_guard lock(mutex_);
+  bool is_shutdown() const SEMMAP_EXCLUDES(mutex_) {
+    MutexLock lock(mutex_);
     return shutdown_;
   }
 
  private:
-  std::optional<T> PopLocked() {
+  std::optional<T> PopLocked() SEMMAP_REQUIRES(mutex_) {
     if (items_.empty()) return std::nullopt;
     T item = std::move(items_.front());
     items_.pop_front();
@@ -87,11 +91,11 @@ class BoundedQueue {
   }
 
   const size_t capacity_;
-  mutable std::mutex mutex_;
-  std::condition_variable not_empty_;
-  std::condition_variable not_full_;
-  std::deque<T> items_;
-  bool shutdown_ = false;
+  mutable Mutex mutex_;
+  std::condition_variable_any not_empty_;  // waits on a MutexLock of mutex_
+  std::condition_variable_any not_full_;
+  std::deque<T> items_ SEMMAP_GUARDED_BY(mutex_);
+  bool shutdown_ SEMMAP_GUARDED_BY(mutex_) = false;
 };
 
 }  // namespace semmap

@@ -22,7 +22,6 @@
 #include <cstdint>
 #include <future>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -33,6 +32,7 @@
 #include "common/latency_stats.h"
 #include "common/logging.h"
 #include "common/status.h"
+#include "common/thread_annotations.h"
 #include "common/thread_launcher.h"
 #include "common/thread_priority.h"
 
@@ -79,13 +79,14 @@ class PipelineStage {
 
   // Starts the thread (OnStart runs there first), or in synchronous mode runs OnStart here.
   // RESOURCE_EXHAUSTED when no thread can be started; FAILED_PRECONDITION when called twice.
-  Status Start() {
-    std::lock_guard lock(lifecycle_mutex_);
+  Status Start() SEMMAP_EXCLUDES(lifecycle_mutex_, sync_mutex_) {
+    MutexLock lock(lifecycle_mutex_);
     if (started_) return FailedPreconditionError(config_.name + " was started already");
     started_ = true;
     if (config_.synchronous) {
-      std::lock_guard sync(sync_mutex_);
+      MutexLock sync(sync_mutex_);
       OnStart();
+      sync_running_ = !stopped_;
       return OkStatus();
     }
     const ThreadLauncher& launch = config_.launch_thread;
@@ -102,10 +103,10 @@ class PipelineStage {
 
   // Hands `event` to the stage; blocks while the queue is full (backpressure).
   // UNAVAILABLE once the stage is stopped (or was never started).
-  Status Submit(Event event) {
+  Status Submit(Event event) SEMMAP_EXCLUDES(lifecycle_mutex_, sync_mutex_) {
     if (config_.synchronous) {
-      std::lock_guard sync(sync_mutex_);
-      if (!IsRunning()) return StoppedError();
+      MutexLock sync(sync_mutex_);
+      if (!sync_running_) return StoppedError();
       HandleTimed(event, Clock::now());
       OnIdle();
       return OkStatus();
@@ -117,7 +118,7 @@ class PipelineStage {
 
   // Like Submit but never blocks: RESOURCE_EXHAUSTED when the queue is full (`event` is left
   // untouched), UNAVAILABLE once stopped.
-  Status TrySubmit(Event& event) {
+  Status TrySubmit(Event& event) SEMMAP_EXCLUDES(lifecycle_mutex_, sync_mutex_) {
     if (config_.synchronous) return Submit(std::move(event));
     if (!IsRunning()) return StoppedError();
     Item item{std::move(event), Clock::now()};
@@ -134,10 +135,10 @@ class PipelineStage {
   // Waits until every event submitted before this call is handled and OnFlush returned;
   // returns the first error recorded since the last Flush, else OnFlush's status.
   // UNAVAILABLE once stopped.
-  Status Flush() {
+  Status Flush() SEMMAP_EXCLUDES(lifecycle_mutex_, sync_mutex_) {
     if (config_.synchronous) {
-      std::lock_guard sync(sync_mutex_);
-      if (!IsRunning()) return StoppedError();
+      MutexLock sync(sync_mutex_);
+      if (!sync_running_) return StoppedError();
       return FlushHere();
     }
     auto done = std::make_shared<std::promise<Status>>();
@@ -148,21 +149,24 @@ class PipelineStage {
 
   // Shuts the queue, lets the thread handle what is queued and run OnStop, joins it.
   // Idempotent; later Submit and Flush calls answer UNAVAILABLE.
-  void Stop() {
-    std::lock_guard lock(lifecycle_mutex_);
+  void Stop() SEMMAP_EXCLUDES(lifecycle_mutex_, sync_mutex_) {
+    MutexLock lock(lifecycle_mutex_);
     if (stopped_) return;
     stopped_ = true;
     queue_.Shutdown();
     if (config_.synchronous) {
-      std::lock_guard sync(sync_mutex_);
-      if (started_) OnStop();
+      MutexLock sync(sync_mutex_);
+      if (sync_running_) {
+        sync_running_ = false;
+        OnStop();
+      }
       return;
     }
     if (thread_.joinable()) thread_.join();
   }
 
-  StageMetrics metrics() const {
-    std::lock_guard lock(metrics_mutex_);
+  StageMetrics metrics() const SEMMAP_EXCLUDES(metrics_mutex_) {
+    MutexLock lock(metrics_mutex_);
     StageMetrics m = metrics_;
     m.name = config_.name;
     m.queue_depth = queue_.size();
@@ -183,10 +187,10 @@ class PipelineStage {
   virtual void OnStop() {}
 
   // Logged with the stage's name, counted, and returned by the next Flush (the first one).
-  void RecordError(const Status& status) {
+  void RecordError(const Status& status) SEMMAP_EXCLUDES(metrics_mutex_) {
     if (status.ok()) return;
     LogError("{}: {}", config_.name, status.ToString());
-    std::lock_guard lock(metrics_mutex_);
+    MutexLock lock(metrics_mutex_);
     ++metrics_.errors;
     if (first_error_.ok()) first_error_ = status;
   }
@@ -200,31 +204,31 @@ class PipelineStage {
     Clock::time_point submitted;
   };
 
-  bool IsRunning() const {
-    std::lock_guard lock(lifecycle_mutex_);
+  bool IsRunning() const SEMMAP_EXCLUDES(lifecycle_mutex_) {
+    MutexLock lock(lifecycle_mutex_);
     return started_ && !stopped_;
   }
   Status StoppedError() const { return UnavailableError(config_.name + " stopped"); }
 
-  void NoteDepth() {
+  void NoteDepth() SEMMAP_EXCLUDES(metrics_mutex_) {
     const size_t depth = queue_.size();
-    std::lock_guard lock(metrics_mutex_);
+    MutexLock lock(metrics_mutex_);
     metrics_.queue_high_water = std::max(metrics_.queue_high_water, depth);
   }
 
-  void HandleTimed(Event& event, Clock::time_point submitted) {
+  void HandleTimed(Event& event, Clock::time_point submitted) SEMMAP_EXCLUDES(metrics_mutex_) {
     const Clock::time_point start = Clock::now();
     Handle(event);
     const Clock::time_point end = Clock::now();
-    std::lock_guard lock(metrics_mutex_);
+    MutexLock lock(metrics_mutex_);
     ++metrics_.handled;
     queue_wait_ms_.Add(std::chrono::duration<double, std::milli>(start - submitted).count());
     handle_ms_.Add(std::chrono::duration<double, std::milli>(end - start).count());
   }
 
-  Status FlushHere() {
+  Status FlushHere() SEMMAP_EXCLUDES(metrics_mutex_) {
     Status flushed = OnFlush();
-    std::lock_guard lock(metrics_mutex_);
+    MutexLock lock(metrics_mutex_);
     Status first = std::move(first_error_);
     first_error_ = OkStatus();
     return first.ok() ? flushed : first;
@@ -255,17 +259,21 @@ class PipelineStage {
 
   const StageConfig config_;
   BoundedQueue<Item> queue_;
-  mutable std::mutex lifecycle_mutex_;  // started_, stopped_, thread_
-  bool started_ = false;
-  bool stopped_ = false;
-  std::thread thread_;
-  std::mutex sync_mutex_;  // synchronous mode: one caller in the hooks at a time
+  // Lock order: lifecycle_mutex_ before sync_mutex_; metrics_mutex_ is never held around
+  // another lock.
+  mutable Mutex lifecycle_mutex_;
+  bool started_ SEMMAP_GUARDED_BY(lifecycle_mutex_) = false;
+  bool stopped_ SEMMAP_GUARDED_BY(lifecycle_mutex_) = false;
+  std::thread thread_ SEMMAP_GUARDED_BY(lifecycle_mutex_);
+  // Synchronous mode: one caller in the hooks at a time; Submit and Flush take only this one.
+  Mutex sync_mutex_;
+  bool sync_running_ SEMMAP_GUARDED_BY(sync_mutex_) = false;  // after OnStart, before OnStop
 
-  mutable std::mutex metrics_mutex_;  // metrics_, first_error_, latency recorders
-  StageMetrics metrics_;
-  Status first_error_;
-  LatencyStats queue_wait_ms_;
-  LatencyStats handle_ms_;
+  mutable Mutex metrics_mutex_;
+  StageMetrics metrics_ SEMMAP_GUARDED_BY(metrics_mutex_);
+  Status first_error_ SEMMAP_GUARDED_BY(metrics_mutex_);
+  LatencyStats queue_wait_ms_ SEMMAP_GUARDED_BY(metrics_mutex_);
+  LatencyStats handle_ms_ SEMMAP_GUARDED_BY(metrics_mutex_);
 };
 
 }  // namespace semmap

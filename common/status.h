@@ -102,6 +102,8 @@ class [[nodiscard]] StatusOr {
     if (!semmap_status_.ok()) return semmap_status_; \
   } while (false)
 
+// `lhs` may be a declaration (`StatusOr<T> x`) and `tmp` a name: neither can be parenthesised.
+// NOLINTBEGIN(bugprone-macro-parentheses)
 #define SEMMAP_ASSIGN_OR_RETURN_IMPL(tmp, lhs, expr) \
   auto tmp = (expr);                                 \
   if (!tmp.ok()) return tmp.status();                \
@@ -109,3 +111,4 @@ class [[nodiscard]] StatusOr {
 
 #define SEMMAP_ASSIGN_OR_RETURN(lhs, expr) \
   SEMMAP_ASSIGN_OR_RETURN_IMPL(SEMMAP_CONCAT(semmap_statusor_, __LINE__), lhs, expr)
+// NOLINTEND(bugprone-macro-parentheses)

@@ -24,8 +24,9 @@ PACKAGES=(
 )
 for extra in "$@"; do
   case "$extra" in
-    fuzz) PACKAGES+=(clang libclang-rt-14-dev) ;;  # libFuzzer, ASan/UBSan runtimes
-    *) echo "install-deps: unknown package set '$extra' (known: fuzz)" >&2; exit 2 ;;
+    fuzz) PACKAGES+=(clang libclang-rt-14-dev) ;;  # libFuzzer, ASan/UBSan/TSan runtimes
+    lint) PACKAGES+=(clang-tidy) ;;
+    *) echo "install-deps: unknown package set '$extra' (known: fuzz, lint)" >&2; exit 2 ;;
   esac
 done
 

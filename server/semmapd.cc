@@ -1,8 +1,8 @@
 // semmapd: the semmap map server. Flags are validated and logged at start; SIGINT/SIGTERM are
 // taken on a dedicated sigwait thread (never in a signal handler) and shut down cleanly.
 #include <pthread.h>
-#include <signal.h>
 
+#include <csignal>
 #include <cstdio>
 #include <iostream>
 

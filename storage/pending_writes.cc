@@ -4,18 +4,18 @@ namespace semmap {
 
 void PendingWrites::Submit(WriteBatch batch) {
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     ++pending_;
   }
   const Status submitted =
       writer_->Submit(std::move(batch), [this](const Status& status, const WriteResult&) {
-        std::lock_guard lock(mutex_);
+        MutexLock lock(mutex_);
         if (!status.ok() && error_.ok()) error_ = status.WithContext(context_);
         --pending_;
         done_.notify_all();
       });
   if (!submitted.ok()) {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     if (error_.ok()) error_ = submitted.WithContext(context_);
     --pending_;
     done_.notify_all();
@@ -24,18 +24,18 @@ void PendingWrites::Submit(WriteBatch batch) {
 
 void PendingWrites::Record(const Status& status) {
   if (status.ok()) return;
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   if (error_.ok()) error_ = status.WithContext(context_);
 }
 
 void PendingWrites::Wait() {
-  std::unique_lock lock(mutex_);
-  done_.wait(lock, [&] { return pending_ == 0; });
+  MutexLock lock(mutex_);
+  while (pending_ != 0) done_.wait(lock);
 }
 
 Status PendingWrites::WaitAndTakeError() {
-  std::unique_lock lock(mutex_);
-  done_.wait(lock, [&] { return pending_ == 0; });
+  MutexLock lock(mutex_);
+  while (pending_ != 0) done_.wait(lock);
   Status error = error_;
   error_ = OkStatus();
   return error;

@@ -5,10 +5,10 @@
 
 #include <condition_variable>
 #include <cstddef>
-#include <mutex>
 #include <string>
 
 #include "common/status.h"
+#include "common/thread_annotations.h"
 #include "storage/storage_writer.h"
 
 namespace semmap {
@@ -22,21 +22,21 @@ class PendingWrites {
   PendingWrites& operator=(const PendingWrites&) = delete;
 
   // Never blocks longer than StorageWriter::Submit; a refused or failed write is recorded.
-  void Submit(WriteBatch batch);
+  void Submit(WriteBatch batch) SEMMAP_EXCLUDES(mutex_);
   // Keeps the first error until TakeError.
-  void Record(const Status& status);
+  void Record(const Status& status) SEMMAP_EXCLUDES(mutex_);
   // Waits until every submitted batch is committed or failed.
-  void Wait();
+  void Wait() SEMMAP_EXCLUDES(mutex_);
   // Wait(), then returns the first error since the last call and forgets it.
-  Status WaitAndTakeError();
+  Status WaitAndTakeError() SEMMAP_EXCLUDES(mutex_);
 
  private:
   StorageWriter* const writer_;
   const std::string context_;
-  std::mutex mutex_;
-  std::condition_variable done_;
-  size_t pending_ = 0;
-  Status error_;
+  Mutex mutex_;
+  std::condition_variable_any done_;  // waits on a MutexLock of mutex_
+  size_t pending_ SEMMAP_GUARDED_BY(mutex_) = 0;
+  Status error_ SEMMAP_GUARDED_BY(mutex_);
 };
 
 }  // namespace semmap

@@ -80,9 +80,12 @@ StatusOr<std::unique_ptr<StorageWriter>> StorageWriter::Start(std::unique_ptr<Ma
   if (store == nullptr) return InvalidArgumentError("storage writer needs a store");
   SEMMAP_RETURN_IF_ERROR(options.Validate());
   std::unique_ptr<StorageWriter> writer(new StorageWriter(std::move(store), options));
-  writer->thread_ = std::thread([w = writer.get()] { w->Run(); });
-  // Nothing reaches the thread before Start returns, so it never reads this id too early.
-  writer->writer_id_ = writer->thread_.get_id();
+  {
+    MutexLock lock(writer->stop_mutex_);
+    writer->thread_ = std::thread([w = writer.get()] { w->Run(); });
+    // Nothing reaches the thread before Start returns, so it never reads this id too early.
+    writer->writer_id_ = writer->thread_.get_id();
+  }
   return writer;
 }
 
@@ -115,7 +118,7 @@ Status StorageWriter::RunSync(std::function<Status(MapStore&)> fn) {
 
 Status StorageWriter::Stop() {
   if (OnWriterThread()) return CalledFromWriter("StorageWriter::Stop");
-  std::lock_guard lock(stop_mutex_);
+  MutexLock lock(stop_mutex_);
   if (stopped_) return stop_status_;
   queue_.Shutdown();  // later Submit/RunSync fail; the thread drains what is queued
   if (thread_.joinable()) thread_.join();

@@ -7,13 +7,13 @@
 #include <functional>
 #include <future>
 #include <memory>
-#include <mutex>
 #include <thread>
 #include <variant>
 #include <vector>
 
 #include "common/bounded_queue.h"
 #include "common/status.h"
+#include "common/thread_annotations.h"
 #include "storage/map_store.h"
 
 namespace semmap {
@@ -45,7 +45,7 @@ class StorageWriter {
   // Drains and commits everything queued, checkpoints the WAL and joins the thread.
   // Idempotent; returns the first error among the writes drained after Stop began and the
   // checkpoint (earlier write errors went to their callbacks).
-  Status Stop();
+  Status Stop() SEMMAP_EXCLUDES(stop_mutex_);
 
   // Batches and sync calls waiting for the thread (for progress reports and tests).
   size_t queue_depth() const { return queue_.size(); }
@@ -72,13 +72,14 @@ class StorageWriter {
   std::unique_ptr<MapStore> store_;
   const Options options_;
   BoundedQueue<Item> queue_;
-  std::thread thread_;
+  // Set by Start before anything is queued (Submit, RunSync and Stop read it after).
   std::thread::id writer_id_;
   Status drain_status_;  // writer thread only until joined
 
-  std::mutex stop_mutex_;  // serialises Stop() calls
-  bool stopped_ = false;
-  Status stop_status_;
+  Mutex stop_mutex_;  // serialises Stop() calls
+  std::thread thread_ SEMMAP_GUARDED_BY(stop_mutex_);
+  bool stopped_ SEMMAP_GUARDED_BY(stop_mutex_) = false;
+  Status stop_status_ SEMMAP_GUARDED_BY(stop_mutex_);
 };
 
 }  // namespace semmap

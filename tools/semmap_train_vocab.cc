@@ -191,6 +191,7 @@ int main(int argc, char** argv) {
     }
   }
   std::vector<const char*> cargs;
+  cargs.reserve(args.size());
   for (const std::string& a : args) cargs.push_back(a.c_str());
   Config config;
   Status parsed = parser.Parse(static_cast<int>(cargs.size()), cargs.data());

@@ -270,7 +270,9 @@ int RunKitti(CliContext context, int argc, const char* const* argv) {
 
 }  // namespace
 
-int RunEval(CliContext context, int argc, const char* const* argv) {
+// The commands' common signature (the others apply their flags to their copy of the context).
+int RunEval(CliContext context,  // NOLINT(performance-unnecessary-value-param)
+            int argc, const char* const* argv) {
   if (argc < 1) return ReportUsage("eval needs a metric: ate, rpe or kitti", kEvalUsage);
   const std::string metric = argv[0];
   if (metric == "--help" || metric == "-h" || metric == "help") {

@@ -85,7 +85,7 @@ StatusOr<Alignment> AlignPoints(const std::vector<Eigen::Vector3d>& source,
     cross += (target[i] - t.mean) * (source[i] - s.mean).transpose();
   }
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Eigen::Vector3d sigma = svd.singularValues();
+  const Eigen::Vector3d& sigma = svd.singularValues();
   if (!(sigma(0) > kRankTolerance * std::sqrt(s.sum_squares * t.sum_squares))) {
     return FailedPreconditionError(
         "the estimated and ground-truth motions are uncorrelated: the alignment rotation is "

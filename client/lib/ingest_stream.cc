@@ -79,7 +79,7 @@ Status IngestStream::FinalStatus() {
     if (final_status_) return *final_status_;
   }
   if (reader_.joinable() && reader_.get_id() != std::this_thread::get_id()) reader_.join();
-  const Status status = FromGrpcStatus(stream_->Finish());
+  Status status = FromGrpcStatus(stream_->Finish());
   std::lock_guard lock(mutex_);
   final_status_ = status;
   return status;

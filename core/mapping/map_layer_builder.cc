@@ -56,8 +56,8 @@ StatusOr<std::unique_ptr<MapLayerBuilder>> MapLayerBuilder::Start(
   stage.name = "map '" + map_name + "' layers";
   stage.queue_capacity = options.queue_capacity;
   std::unique_ptr<MapLayerBuilder> builder(
-      new MapLayerBuilder(map_id, std::move(map_name), std::move(options), writer,
-                          std::move(occupancy), std::move(restore), std::move(stage)));
+      new MapLayerBuilder(map_id, std::move(map_name), options, writer, std::move(occupancy),
+                          std::move(restore), std::move(stage)));
   SEMMAP_RETURN_IF_ERROR(builder->PipelineStage::Start());
   return builder;
 }
@@ -68,7 +68,7 @@ MapLayerBuilder::MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerO
     : PipelineStage(std::move(stage)),
       map_id_(map_id),
       map_name_(std::move(map_name)),
-      options_(std::move(options)),
+      options_(options),
       writer_(writer),
       restore_(std::move(restore)),
       occupancy_(std::move(occupancy)),

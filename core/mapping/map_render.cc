@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <ranges>
 
 namespace semmap {
 namespace {
@@ -143,11 +144,11 @@ const Eigen::Isometry3d* FirstCamera(const MapRenderInput& in) {
 Eigen::Vector3d GroundForward(const Eigen::Vector3d& up, const Eigen::Isometry3d* first_camera) {
   std::vector<Eigen::Vector3d> candidates;
   if (first_camera != nullptr) {
-    candidates.push_back(first_camera->linear().col(2));
-    candidates.push_back(-first_camera->linear().col(1));
+    candidates.emplace_back(first_camera->linear().col(2));
+    candidates.emplace_back(-first_camera->linear().col(1));
   }
-  candidates.push_back(Eigen::Vector3d::UnitZ());
-  candidates.push_back(Eigen::Vector3d::UnitX());
+  candidates.emplace_back(Eigen::Vector3d::UnitZ());
+  candidates.emplace_back(Eigen::Vector3d::UnitX());
   for (const Eigen::Vector3d& c : candidates) {
     const Eigen::Vector3d ground = c - c.dot(up) * up;
     // 0.25: more than ~15 degrees off the vertical, so the heading is meaningful.
@@ -650,11 +651,11 @@ void DrawObjectLabels(cv::Mat3b& image, const MapViewProjection& p,
   const int pad = Px(l, 4);
   const cv::Rect area(p.area_x, p.area_y, p.area_width, p.area_height);
   std::vector<cv::Rect> placed;
-  for (auto it = outlines.rbegin(); it != outlines.rend(); ++it) {  // nearest first
-    const std::string text = Printable(it->object->label, 40);
+  for (const auto& outline : std::views::reverse(outlines)) {  // nearest first
+    const std::string text = Printable(outline.object->label, 40);
     if (text.empty()) continue;
     double min_x = 1e9, max_x = -1e9, min_y = 1e9, max_y = -1e9;
-    for (const cv::Point2d& c : it->corners) {
+    for (const cv::Point2d& c : outline.corners) {
       min_x = std::min(min_x, c.x);
       max_x = std::max(max_x, c.x);
       min_y = std::min(min_y, c.y);
@@ -684,7 +685,7 @@ void DrawObjectLabels(cv::Mat3b& image, const MapViewProjection& p,
       rect = at(above - tries * (box.height + Px(l, 2)));
     }
     placed.push_back(rect);
-    const cv::Scalar colour = ObjectColour(*it->object);
+    const cv::Scalar colour = ObjectColour(*outline.object);
     Panel(image, rect, 0.88, colour);
     cv::rectangle(image, rect, colour, Px(l, 2));
     PutText(image, text, {rect.x + pad, rect.y + pad + size.height}, scale, kText, thickness);
@@ -951,7 +952,7 @@ Eigen::Vector3d EstimateUpDirection(const std::vector<Eigen::Isometry3d>& T_worl
   const double n = sum.norm();
   const double count = static_cast<double>(T_world_camera.size());
   if (!std::isfinite(n) || n < 1e-3 * std::max(1.0, count)) return -Eigen::Vector3d::UnitY();
-  const Eigen::Vector3d mean_up = sum / n;
+  Eigen::Vector3d mean_up = sum / n;
   // Hand-held cameras are seldom rolled but often pitched the same way (towards the floor),
   // which tilts the mean -y. Pitch turns about x, so x stays horizontal: with enough yaw
   // spread (second eigenvalue, ~8 degrees), the normal of the x axes is up, pitch or not.

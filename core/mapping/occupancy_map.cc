@@ -141,8 +141,8 @@ struct OtHeader {
 // "id", "size", "res", then a "data" line followed by the node stream.
 StatusOr<OtHeader> ParseOtHeader(std::string_view ot) {
   // AbstractOcTree::fileHeader (protected in OctoMap).
-  constexpr std::string_view magic = "# Octomap OcTree file";
-  if (ot.substr(0, magic.size()) != magic) {
+  constexpr std::string_view kMagic = "# Octomap OcTree file";
+  if (ot.substr(0, kMagic.size()) != kMagic) {
     return InvalidArgumentError("not an OctoMap .ot file (bad file header)");
   }
   constexpr size_t kMaxHeaderBytes = 4096;

@@ -70,7 +70,8 @@ StatusOr<std::unique_ptr<ObjectCatalog>> ObjectCatalog::Load(StorageWriter* writ
     SEMMAP_ASSIGN_OR_RETURN(types, store.ListObjectTypes(std::nullopt, /*with_views=*/true));
     return OkStatus();
   }));
-  std::unique_ptr<ObjectCatalog> catalog(new ObjectCatalog(writer, std::move(options)));
+  std::unique_ptr<ObjectCatalog> catalog(new ObjectCatalog(writer, options));
+  MutexLock lock(catalog->mutex_);  // not shared yet; the lock keeps the analysis simple
   for (const ObjectType& type : types) {
     SEMMAP_ASSIGN_OR_RETURN(Entry entry, EntryFromType(type));
     catalog->entries_.emplace(type.id, std::move(entry));
@@ -123,7 +124,7 @@ StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input,
   // The views just built are what the stored features decode to (lossless codec).
   entry.model.type_id = type.id;
   entry.map_id = type.map_id;
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   entries_[type.id] = std::move(entry);
   cache_.clear();
   return type;
@@ -140,7 +141,7 @@ Status ObjectCatalog::Remove(const std::string& label, const std::string& map,
     SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancelled));
     return store.RemoveObjectType(label, map_id);
   }));
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   for (auto it = entries_.begin(); it != entries_.end(); ++it) {
     if (it->second.model.label == label && it->second.map_id == map_id) {
       entries_.erase(it);
@@ -152,7 +153,7 @@ Status ObjectCatalog::Remove(const std::string& label, const std::string& map,
 }
 
 void ObjectCatalog::ForgetMap(int64_t map_id) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   for (auto it = entries_.begin(); it != entries_.end();) {
     it = it->second.map_id == map_id ? entries_.erase(it) : std::next(it);
   }
@@ -160,7 +161,7 @@ void ObjectCatalog::ForgetMap(int64_t map_id) {
 }
 
 std::shared_ptr<const ObjectModelSet> ObjectCatalog::ModelsFor(int64_t map_id) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   auto cached = cache_.find(map_id);
   if (cached != cache_.end()) return cached->second;
   auto set = std::make_shared<ObjectModelSet>();
@@ -175,7 +176,7 @@ std::shared_ptr<const ObjectModelSet> ObjectCatalog::ModelsFor(int64_t map_id) c
 }
 
 bool ObjectCatalog::Contains(int64_t type_id) const {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return entries_.count(type_id) > 0;
 }
 

@@ -9,7 +9,6 @@
 #include <cstdint>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -18,6 +17,7 @@
 #include "common/map_types.h"
 #include "common/object_types.h"
 #include "common/status.h"
+#include "common/thread_annotations.h"
 #include "core/recognition/object_model.h"
 #include "storage/storage_writer.h"
 
@@ -49,17 +49,17 @@ class ObjectCatalog {
   // `cancelled` is asked right before the type is stored: a call whose client has gone or whose
   // deadline has passed by then takes no effect.
   StatusOr<ObjectType> Register(const RegisterObjectInput& input,
-                                const CancelCheck& cancelled = nullptr);
+                                const CancelCheck& cancelled = nullptr) SEMMAP_EXCLUDES(mutex_);
   // NOT_FOUND when the scope has no type of that label.
   Status Remove(const std::string& label, const std::string& map,
-                const CancelCheck& cancelled = nullptr);
+                const CancelCheck& cancelled = nullptr) SEMMAP_EXCLUDES(mutex_);
   // Drops the types of a map that was removed from the store (with them, by cascade).
-  void ForgetMap(int64_t map_id);
+  void ForgetMap(int64_t map_id) SEMMAP_EXCLUDES(mutex_);
 
   // Global types and the map's own; never null.
-  std::shared_ptr<const ObjectModelSet> ModelsFor(int64_t map_id) const;
+  std::shared_ptr<const ObjectModelSet> ModelsFor(int64_t map_id) const SEMMAP_EXCLUDES(mutex_);
   // Whether a type id is still registered (observations of removed types are dropped).
-  bool Contains(int64_t type_id) const;
+  bool Contains(int64_t type_id) const SEMMAP_EXCLUDES(mutex_);
   const ObjectRecognitionOptions& options() const { return options_; }
 
  private:
@@ -70,15 +70,15 @@ class ObjectCatalog {
   };
 
   ObjectCatalog(StorageWriter* writer, ObjectRecognitionOptions options)
-      : writer_(writer), options_(std::move(options)) {}
+      : writer_(writer), options_(options) {}
   static StatusOr<Entry> EntryFromType(const ObjectType& type);
 
   StorageWriter* const writer_;
   const ObjectRecognitionOptions options_;
-  mutable std::mutex mutex_;
-  std::map<int64_t, Entry> entries_;  // by type id
+  mutable Mutex mutex_;
+  std::map<int64_t, Entry> entries_ SEMMAP_GUARDED_BY(mutex_);  // by type id
   // Snapshots handed out, per map, until the next change.
-  mutable std::map<int64_t, std::shared_ptr<const ObjectModelSet>> cache_;
+  mutable std::map<int64_t, std::shared_ptr<const ObjectModelSet>> cache_ SEMMAP_GUARDED_BY(mutex_);
 };
 
 // A stable, saturated colour for a label (the same label always gets the same colour).

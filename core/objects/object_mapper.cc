@@ -33,8 +33,8 @@ StatusOr<std::unique_ptr<ObjectMapper>> ObjectMapper::Start(
   }
   stage.name = "objects of map " + std::to_string(map_id);
   stage.queue_capacity = options.queue_capacity;
-  std::unique_ptr<ObjectMapper> mapper(new ObjectMapper(map_id, std::move(options), catalog, writer,
-                                                        std::move(restore), std::move(stage)));
+  std::unique_ptr<ObjectMapper> mapper(
+      new ObjectMapper(map_id, options, catalog, writer, std::move(restore), std::move(stage)));
   SEMMAP_RETURN_IF_ERROR(mapper->PipelineStage::Start());
   return mapper;
 }
@@ -44,7 +44,7 @@ ObjectMapper::ObjectMapper(int64_t map_id, ObjectMapperOptions options,
                            StoreRestore restore, StageConfig stage)
     : PipelineStage(std::move(stage)),
       map_id_(map_id),
-      options_(std::move(options)),
+      options_(options),
       catalog_(catalog),
       writer_(writer),
       restore_(std::move(restore)),

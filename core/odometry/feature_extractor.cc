@@ -55,7 +55,8 @@ std::vector<cv::KeyPoint> BucketKeypoints(std::vector<cv::KeyPoint> keypoints, i
     const cv::Point2f& p = keypoints[i].pt;
     const int cx = std::clamp(static_cast<int>(p.x * cols / width), 0, cols - 1);
     const int cy = std::clamp(static_cast<int>(p.y * rows / height), 0, rows - 1);
-    int& n = taken_in_cell[static_cast<size_t>(cy * cols + cx)];
+    int& n = taken_in_cell[static_cast<size_t>(cy) * static_cast<size_t>(cols) +
+                           static_cast<size_t>(cx)];
     if (n < share) {
       ++n;
       taken[i] = true;

@@ -9,12 +9,12 @@
 namespace semmap {
 
 StatusOr<std::vector<MapInfo>> StoreMapQuery::ListMaps() {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return store_->ListMaps();
 }
 
 StatusOr<std::vector<SessionInfo>> StoreMapQuery::ListSessions(const std::string& map) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return store_->ListSessions(map);
 }
 
@@ -24,18 +24,18 @@ StatusOr<std::vector<TrajectoryPose>> StoreMapQuery::GetTrajectory(const std::st
   if (map.empty() || session.empty()) {
     return InvalidArgumentError("a trajectory query needs both a map and a session name");
   }
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   SEMMAP_ASSIGN_OR_RETURN(SessionInfo info, store_->GetSession(map, session));
   return store_->GetTrajectory(info.id, keyframes_only);
 }
 
 StatusOr<ExportResult> StoreMapQuery::ExportMap(const ExportRequest& request) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   return BuildExport(*store_, request, layers_);
 }
 
 StatusOr<std::vector<ObjectType>> StoreMapQuery::ListObjectTypes(const std::string& map) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   std::optional<int64_t> map_id;
   if (!map.empty()) {
     SEMMAP_ASSIGN_OR_RETURN(MapInfo info, store_->GetMap(map));
@@ -55,7 +55,7 @@ StatusOr<std::vector<ObjectType>> StoreMapQuery::ListObjectTypes(const std::stri
 
 StatusOr<std::vector<ObjectInstance>> StoreMapQuery::FindObjects(const std::string& label,
                                                                  const std::string& map) {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   std::optional<int64_t> map_id;
   if (!map.empty()) {
     SEMMAP_ASSIGN_OR_RETURN(MapInfo info, store_->GetMap(map));
@@ -71,7 +71,7 @@ StatusOr<std::vector<ObjectInstance>> StoreMapQuery::ObjectsNear(const std::stri
   if (!point.allFinite() || !std::isfinite(radius_m) || radius_m <= 0) {
     return InvalidArgumentError("a near query needs a finite point and a radius > 0");
   }
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   MapInfo info;
   if (map.empty()) {
     // Coordinates belong to one map's frame: without a name, only an unambiguous one will do.

@@ -2,9 +2,9 @@
 #pragma once
 
 #include <memory>
-#include <mutex>
 
 #include "common/map_query.h"
+#include "common/thread_annotations.h"
 #include "core/mapping/map_layer_builder.h"
 #include "storage/map_store.h"
 
@@ -14,7 +14,7 @@ class StoreMapQuery final : public MapQueryInterface {
  public:
   // `layers`: resolutions for exports that rebuild a 3D layer (the server's layer options).
   explicit StoreMapQuery(std::unique_ptr<MapStore> store, MapLayerOptions layers = {})
-      : store_(std::move(store)), layers_(std::move(layers)) {}
+      : store_(std::move(store)), layers_(layers) {}
 
   StatusOr<std::vector<MapInfo>> ListMaps() override;
   StatusOr<std::vector<SessionInfo>> ListSessions(const std::string& map) override;
@@ -30,8 +30,10 @@ class StoreMapQuery final : public MapQueryInterface {
                                                     const std::string& label) override;
 
  private:
-  std::mutex mutex_;
-  std::unique_ptr<MapStore> store_;
+  Mutex mutex_;
+  // The store's connection is not thread-safe: the pointer is set once, what it points to is
+  // used under mutex_.
+  const std::unique_ptr<MapStore> store_ SEMMAP_PT_GUARDED_BY(mutex_);
   const MapLayerOptions layers_;
 };
 

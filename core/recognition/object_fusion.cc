@@ -76,6 +76,7 @@ std::vector<int> Cluster(const std::vector<const WorldObjectObservation*>& group
     members[static_cast<size_t>(cluster[i])].push_back(group[i]);
   }
   std::vector<Eigen::Vector3d> medians;
+  medians.reserve(members.size());
   for (const auto& m : members) medians.push_back(MedianOf(m, false));
   for (size_t i = 0; i < group.size(); ++i) {
     const int c = Nearest(medians, group[i]->p_world, radius);

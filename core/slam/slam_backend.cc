@@ -89,7 +89,7 @@ StatusOr<std::unique_ptr<SlamBackend>> SlamBackend::Start(
   // Its corrections keep the trackers right: normal priority, unlike the other map stages.
   stage.background = false;
   std::unique_ptr<SlamBackend> backend(
-      new SlamBackend(map_id, std::move(options), std::move(vocabulary), writer, std::move(stage)));
+      new SlamBackend(map_id, options, std::move(vocabulary), writer, std::move(stage)));
   if (restore.snapshot) backend->Restore(*restore.snapshot);
   restore.snapshot = nullptr;
   backend->restore_ = std::move(restore);
@@ -103,7 +103,7 @@ SlamBackend::SlamBackend(int64_t map_id, SlamBackendOptions options,
                          StageConfig stage)
     : PipelineStage(std::move(stage)),
       map_id_(map_id),
-      options_(std::move(options)),
+      options_(options),
       vocabulary_(std::move(vocabulary)),
       writer_(writer),
       writes_(writer, "slam back end") {}

@@ -1,6 +1,7 @@
 #include "server/service/ingest_reactor.h"
 
 #include <chrono>
+#include <ranges>
 
 #include "server/serialization/ingest_conversions.h"
 #include "server/serialization/wire_parsing.h"
@@ -11,8 +12,8 @@ namespace semmap {
 class IngestReactor::Sink final : public IngestSink {
  public:
   explicit Sink(IngestReactor* reactor) : reactor_(reactor) {}
-  void Detach() {
-    std::lock_guard lock(mutex_);
+  void Detach() SEMMAP_EXCLUDES(mutex_) {
+    MutexLock lock(mutex_);
     reactor_ = nullptr;
   }
   void OnStarted(const SessionInfo& s) override {
@@ -33,24 +34,32 @@ class IngestReactor::Sink final : public IngestSink {
 
  private:
   template <typename F>
-  void Call(F&& f) {
-    std::lock_guard lock(mutex_);
+  void Call(F&& f) SEMMAP_EXCLUDES(mutex_) {
+    MutexLock lock(mutex_);
     if (reactor_ != nullptr) f(reactor_);
   }
-  std::mutex mutex_;
-  IngestReactor* reactor_;
+  Mutex mutex_;
+  IngestReactor* reactor_ SEMMAP_GUARDED_BY(mutex_);
 };
 
 IngestReactor::IngestReactor(grpc::CallbackServerContext* context, IngestManager* manager)
     : context_(context), sink_(std::make_shared<Sink>(this)) {
+  // Open starts the session's threads, which may call the Sink (QueueRoom reads session_ and
+  // read_in_flight_) before this constructor finishes: the state is set under the lock.
   StatusOr<std::shared_ptr<IngestSession>> session = manager->Open(sink_);
+  {
+    MutexLock lock(mutex_);
+    if (!session.ok()) {
+      finish_called_ = true;
+    } else {
+      session_ = std::move(session).value();
+      read_in_flight_ = true;
+    }
+  }
   if (!session.ok()) {
-    finish_called_ = true;
     Finish(ToGrpcStatus(session.status()));
     return;
   }
-  session_ = std::move(session).value();
-  read_in_flight_ = true;
   StartRead(&request_);
 }
 
@@ -107,7 +116,7 @@ void IngestReactor::EnqueueLocked(v1::IngestResponse response) {
 void IngestReactor::OnReadDone(bool ok) {
   Actions actions;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     read_in_flight_ = false;
     if (!ok) {
       // The client closed its side (or the call broke). A close without `end` ends the
@@ -137,7 +146,7 @@ void IngestReactor::OnReadDone(bool ok) {
 void IngestReactor::OnWriteDone(bool ok) {
   Actions actions;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     writing_.reset();
     if (!ok) {
       client_gone_ = true;
@@ -150,25 +159,33 @@ void IngestReactor::OnWriteDone(bool ok) {
 }
 
 void IngestReactor::OnCancel() {
+  std::shared_ptr<IngestSession> session;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     client_gone_ = true;
     reads_closed_ = true;
     outgoing_.clear();
+    session = session_;
   }
   // The session still stores what it has queued, then reports Finished.
-  if (session_) session_->Cancel(context_->deadline() <= std::chrono::system_clock::now());
+  if (session) session->Cancel(context_->deadline() <= std::chrono::system_clock::now());
 }
 
 void IngestReactor::OnDone() {
-  sink_->Detach();
+  {
+    // gRPC calls OnDone after every other reaction returned. Taking the lock once more orders
+    // the destruction after them for ThreadSanitizer too: gRPC's own synchronisation is in an
+    // uninstrumented library, invisible to it.
+    MutexLock lock(mutex_);
+  }
+  sink_->Detach();  // after this no session callback reaches the reactor
   delete this;
 }
 
 void IngestReactor::Started(const SessionInfo& session) {
   Actions actions;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     v1::IngestResponse response;
     ToProto(session, response.mutable_started());
     EnqueueLocked(std::move(response));
@@ -180,7 +197,7 @@ void IngestReactor::Started(const SessionInfo& session) {
 void IngestReactor::Ack(const FrameAckInfo& ack) {
   Actions actions;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     v1::IngestResponse response;
     ToProto(ack, response.mutable_ack());
     EnqueueLocked(std::move(response));
@@ -192,12 +209,12 @@ void IngestReactor::Ack(const FrameAckInfo& ack) {
 void IngestReactor::Progress(const IngestProgressInfo& progress) {
   Actions actions;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     if (progress_queued_) {
       // Replace the queued progress with the newer one: progress never piles up.
-      for (auto it = outgoing_.rbegin(); it != outgoing_.rend(); ++it) {
-        if (it->has_progress()) {
-          ToProto(progress, it->mutable_progress());
+      for (v1::IngestResponse& queued : std::views::reverse(outgoing_)) {
+        if (queued.has_progress()) {
+          ToProto(progress, queued.mutable_progress());
           break;
         }
       }
@@ -215,7 +232,7 @@ void IngestReactor::Progress(const IngestProgressInfo& progress) {
 void IngestReactor::QueueRoom() {
   Actions actions;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     DecideReadLocked(&actions);
   }
   Run(actions);
@@ -224,7 +241,7 @@ void IngestReactor::QueueRoom() {
 void IngestReactor::Finished(const Status& status, const IngestSummaryInfo& summary) {
   Actions actions;
   {
-    std::lock_guard lock(mutex_);
+    MutexLock lock(mutex_);
     v1::IngestResponse response;
     ToProto(summary, response.mutable_summary());
     EnqueueLocked(std::move(response));

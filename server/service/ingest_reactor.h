@@ -12,9 +12,9 @@
 
 #include <deque>
 #include <memory>
-#include <mutex>
 #include <optional>
 
+#include "common/thread_annotations.h"
 #include "core/pipeline/ingest_manager.h"
 #include "semmap/v1/service.grpc.pb.h"
 
@@ -39,37 +39,43 @@ class IngestReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer, grp
     std::optional<grpc::Status> finish;
   };
 
-  void Run(const Actions& actions);
-  void DecideReadLocked(Actions* actions);
-  void DecideWriteOrFinishLocked(Actions* actions);
-  void EnqueueLocked(v1::IngestResponse response);
-  void PushToSessionLocked(IngestMessage message);
+  void Run(const Actions& actions) SEMMAP_EXCLUDES(mutex_);
+  void DecideReadLocked(Actions* actions) SEMMAP_REQUIRES(mutex_);
+  void DecideWriteOrFinishLocked(Actions* actions) SEMMAP_REQUIRES(mutex_);
+  void EnqueueLocked(v1::IngestResponse response) SEMMAP_REQUIRES(mutex_);
+  void PushToSessionLocked(IngestMessage message) SEMMAP_REQUIRES(mutex_);
 
   // Called by the Sink.
-  void Started(const SessionInfo& session);
-  void Ack(const FrameAckInfo& ack);
-  void Progress(const IngestProgressInfo& progress);
-  void QueueRoom();
-  void Finished(const Status& status, const IngestSummaryInfo& summary);
+  void Started(const SessionInfo& session) SEMMAP_EXCLUDES(mutex_);
+  void Ack(const FrameAckInfo& ack) SEMMAP_EXCLUDES(mutex_);
+  void Progress(const IngestProgressInfo& progress) SEMMAP_EXCLUDES(mutex_);
+  void QueueRoom() SEMMAP_EXCLUDES(mutex_);
+  void Finished(const Status& status, const IngestSummaryInfo& summary) SEMMAP_EXCLUDES(mutex_);
 
   static constexpr size_t kMaxPendingResponses = 64;
 
   grpc::CallbackServerContext* const context_;
-  std::shared_ptr<Sink> sink_;
-  std::shared_ptr<IngestSession> session_;
+  const std::shared_ptr<Sink> sink_;
 
-  std::mutex mutex_;
-  grpc::ByteBuffer request_;
-  uint64_t messages_read_ = 0;
-  bool read_in_flight_ = false;
-  bool reads_closed_ = false;  // half-close seen, protocol finished, or stream finishing
-  bool end_held_ = false;      // end read; waiting for the half-close that must follow
-  std::deque<v1::IngestResponse> outgoing_;
-  std::optional<grpc::ByteBuffer> writing_;
-  bool progress_queued_ = false;  // a not-yet-sent progress is coalesced with newer ones
-  std::optional<grpc::Status> finish_status_;
-  bool finish_called_ = false;
-  bool client_gone_ = false;
+  // Lock order: the Sink's mutex (held while it calls the reactor) before this one.
+  Mutex mutex_;
+  // Set in the constructor once Open returns, when the session may already call the Sink.
+  std::shared_ptr<IngestSession> session_ SEMMAP_GUARDED_BY(mutex_);
+  // gRPC fills it between StartRead and OnReadDone; read here only under mutex_.
+  grpc::ByteBuffer request_ SEMMAP_GUARDED_BY(mutex_);
+  uint64_t messages_read_ SEMMAP_GUARDED_BY(mutex_) = 0;
+  bool read_in_flight_ SEMMAP_GUARDED_BY(mutex_) = false;
+  // Half-close seen, protocol finished, or stream finishing.
+  bool reads_closed_ SEMMAP_GUARDED_BY(mutex_) = false;
+  // End read; waiting for the half-close that must follow.
+  bool end_held_ SEMMAP_GUARDED_BY(mutex_) = false;
+  std::deque<v1::IngestResponse> outgoing_ SEMMAP_GUARDED_BY(mutex_);
+  std::optional<grpc::ByteBuffer> writing_ SEMMAP_GUARDED_BY(mutex_);
+  // A not-yet-sent progress is coalesced with newer ones.
+  bool progress_queued_ SEMMAP_GUARDED_BY(mutex_) = false;
+  std::optional<grpc::Status> finish_status_ SEMMAP_GUARDED_BY(mutex_);
+  bool finish_called_ SEMMAP_GUARDED_BY(mutex_) = false;
+  bool client_gone_ SEMMAP_GUARDED_BY(mutex_) = false;
 };
 
 }  // namespace semmap
