@@ -1,7 +1,6 @@
 #include "server/service/ingest_reactor.h"
 
 #include <chrono>
-#include <ranges>
 
 #include "server/serialization/ingest_conversions.h"
 #include "server/serialization/wire_parsing.h"
@@ -212,9 +211,12 @@ void IngestReactor::Progress(const IngestProgressInfo& progress) {
     MutexLock lock(mutex_);
     if (progress_queued_) {
       // Replace the queued progress with the newer one: progress never piles up.
-      for (v1::IngestResponse& queued : std::views::reverse(outgoing_)) {
-        if (queued.has_progress()) {
-          ToProto(progress, queued.mutable_progress());
+      // Reverse iterators, not std::views::reverse: clang 14 (the tsan build) cannot compile
+      // libstdc++ 12's <ranges>.
+      // NOLINTNEXTLINE(modernize-loop-convert)
+      for (auto it = outgoing_.rbegin(); it != outgoing_.rend(); ++it) {
+        if (it->has_progress()) {
+          ToProto(progress, it->mutable_progress());
           break;
         }
       }
