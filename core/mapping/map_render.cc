@@ -651,7 +651,11 @@ void DrawObjectLabels(cv::Mat3b& image, const MapViewProjection& p,
   const int pad = Px(l, 4);
   const cv::Rect area(p.area_x, p.area_y, p.area_width, p.area_height);
   std::vector<cv::Rect> placed;
-  for (const auto& outline : std::views::reverse(outlines)) {  // nearest first
+  // Nearest first. Reverse iterators: clang 14 (tsan preset) cannot compile libstdc++ 12's
+  // std::views::reverse.
+  for (auto it = outlines.rbegin(); it != outlines.rend();
+       ++it) {  // NOLINT(modernize-loop-convert)
+    const auto& outline = *it;
     const std::string text = Printable(outline.object->label, 40);
     if (text.empty()) continue;
     double min_x = 1e9, max_x = -1e9, min_y = 1e9, max_y = -1e9;
