@@ -1,9 +1,6 @@
 # The README's two commands: `make demo` and `make test`. Both install the Debian packages
 # they need, configure and build (Release, Ninja, ccache) and then run.
 JOBS ?= $(shell nproc)
-# ccache keys on paths relative to the checkout, so a fresh clone (CI) reuses earlier builds.
-export CCACHE_BASEDIR := $(CURDIR)
-export CCACHE_NOHASHDIR := 1
 
 .PHONY: demo test deps build test-asan test-tsan test-core lint format-check fuzz bench format clean
 

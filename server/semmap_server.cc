@@ -104,11 +104,7 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   server->objects_ = std::move(objects).value();
   IngestOptions ingest = options.ingest;
   // Map stages restore through read connections of their own (WAL: next to the writer).
-  ingest.open_reader = [db_path, sqlite]() -> StatusOr<std::unique_ptr<MapStore>> {
-    SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SqliteMapStore> reader,
-                            SqliteMapStore::Open(db_path, sqlite));
-    return std::unique_ptr<MapStore>(std::move(reader));
-  };
+  ingest.open_reader = SqliteMapStore::Opener(db_path, sqlite);
   server->ingest_ = std::make_unique<IngestManager>(server->writer_.get(), std::move(ingest),
                                                     std::move(vocabulary), server->objects_.get());
   server->service_ = std::make_unique<MapServiceImpl>(server->ingest_.get(), server->query_.get(),

@@ -47,7 +47,6 @@ class MapPipeline {
   // Registration, before sessions use the pipeline (the list is fixed afterwards).
   void AddConsumer(std::unique_ptr<MapConsumer> consumer);
   // Starts the back end (once; later calls return it). Its pose events go to the consumers.
-  // Not thread-safe with itself: the owner serialises it (IngestManager's map lock).
   StatusOr<SlamBackend*> EnsureBackend(const SlamBackendOptions& options,
                                        std::shared_ptr<const BowVocabulary> vocabulary,
                                        StorageWriter* writer, SlamRestore restore);

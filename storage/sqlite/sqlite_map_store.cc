@@ -13,6 +13,13 @@ namespace semmap {
 
 using sqlite::StatementLease;
 
+MapStoreOpener SqliteMapStore::Opener(std::string path, SqliteOptions options) {
+  return [path = std::move(path), options]() -> StatusOr<std::unique_ptr<MapStore>> {
+    SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SqliteMapStore> store, Open(path, options));
+    return std::unique_ptr<MapStore>(std::move(store));
+  };
+}
+
 StatusOr<std::unique_ptr<SqliteMapStore>> SqliteMapStore::Open(const std::string& path,
                                                                const SqliteOptions& options) {
   if (path.empty()) return InvalidArgumentError("database path is empty");

@@ -11,6 +11,7 @@
 
 #include "common/status.h"
 #include "storage/map_store.h"
+#include "storage/map_store_opener.h"
 #include "storage/sqlite/connection.h"
 
 namespace semmap {
@@ -29,6 +30,9 @@ class SqliteMapStore final : public MapStore {
   // writing or its schema is newer than this binary's.
   static StatusOr<std::unique_ptr<SqliteMapStore>> Open(const std::string& path,
                                                         const SqliteOptions& options);
+  // Opens another connection to `path` on each call (read connections for pipeline stages'
+  // restores, next to the writer's: WAL).
+  static MapStoreOpener Opener(std::string path, SqliteOptions options);
 
   StatusOr<std::vector<MapInfo>> ListMaps() override;
   StatusOr<MapInfo> GetMap(const std::string& name) override;

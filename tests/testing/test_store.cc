@@ -23,11 +23,4 @@ StatusOr<std::unique_ptr<TestStore>> MakeTestStore(const std::string& map_name,
   return store;
 }
 
-MapStoreOpener ReaderOf(const TestStore& store) {
-  return [path = store.db_path]() -> StatusOr<std::unique_ptr<MapStore>> {
-    SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SqliteMapStore> reader, SqliteMapStore::Open(path, {}));
-    return std::unique_ptr<MapStore>(std::move(reader));
-  };
-}
-
 }  // namespace semmap::testing

@@ -9,7 +9,6 @@
 #include "common/camera.h"
 #include "common/map_types.h"
 #include "common/status.h"
-#include "storage/map_store_opener.h"
 #include "storage/sqlite/sqlite_map_store.h"
 #include "storage/storage_writer.h"
 #include "tests/testing/temp_dir.h"
@@ -29,9 +28,5 @@ StatusOr<std::unique_ptr<TestStore>> MakeTestStore(const std::string& map_name,
                                                    const std::string& session_name,
                                                    const CameraCalibration& camera,
                                                    double depth_scale);
-
-// Opens another connection to the store's database (as the server opens read connections
-// for pipeline stages' restores).
-MapStoreOpener ReaderOf(const TestStore& store);
 
 }  // namespace semmap::testing

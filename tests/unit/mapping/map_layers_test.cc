@@ -140,7 +140,8 @@ class MapLayersTest : public ::testing::Test {
   std::unique_ptr<MapLayerBuilder> StartBuilder(bool restore) {
     StatusOr<std::unique_ptr<MapLayerBuilder>> builder = MapLayerBuilder::Start(
         map_.id, map_.name, options_, writer_,
-        restore ? StoreRestore::ThroughReader(testing::ReaderOf(*store_)) : StoreRestore::None());
+        restore ? StoreRestore::ThroughReader(SqliteMapStore::Opener(store_->db_path, {}))
+                : StoreRestore::None());
     EXPECT_TRUE(builder.ok()) << builder.status().ToString();
     return builder.ok() ? std::move(builder).value() : nullptr;
   }

@@ -85,7 +85,8 @@ class ObjectMapperTest : public ::testing::Test {
   std::unique_ptr<ObjectMapper> StartMapper(bool restore) {
     StatusOr<std::unique_ptr<ObjectMapper>> mapper = ObjectMapper::Start(
         map_.id, {}, catalog_.get(), writer_,
-        restore ? StoreRestore::ThroughReader(testing::ReaderOf(*store_)) : StoreRestore::None());
+        restore ? StoreRestore::ThroughReader(SqliteMapStore::Opener(store_->db_path, {}))
+                : StoreRestore::None());
     EXPECT_TRUE(mapper.ok()) << mapper.status().ToString();
     return mapper.ok() ? std::move(mapper).value() : nullptr;
   }

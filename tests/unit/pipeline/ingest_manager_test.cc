@@ -35,11 +35,7 @@ class IngestManagerTest : public ::testing::Test {
     IngestOptions options;
     options.max_open_maps = max_open;
     options.max_idle_maps = max_idle;
-    const std::string db = dir_.File("db.sqlite");
-    options.open_reader = [db]() -> StatusOr<std::unique_ptr<MapStore>> {
-      SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SqliteMapStore> r, SqliteMapStore::Open(db, {}));
-      return std::unique_ptr<MapStore>(std::move(r));
-    };
+    options.open_reader = SqliteMapStore::Opener(dir_.File("db.sqlite"), {});
     return options;
   }
 

@@ -292,13 +292,9 @@ TEST_F(SlamBackendTest, RestoresFromTheStoreOnItsOwnThreadLeavingOutLiveSessions
   // The live session's first keyframe is committed before the restore reads.
   Stream(*Start(), {lap.front()}, std::nullopt, /*drift=*/false);
   ASSERT_TRUE(writer_->RunSync([](MapStore&) { return OkStatus(); }).ok());  // after the above
-  const std::string db = dir_.File("semmap.db");
-  MapStoreOpener opener = [db]() -> StatusOr<std::unique_ptr<MapStore>> {
-    SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SqliteMapStore> reader, SqliteMapStore::Open(db, {}));
-    return std::unique_ptr<MapStore>(std::move(reader));
-  };
   SlamRestore restore;
-  restore.from_store = StoreRestore::ThroughReader(opener);
+  restore.from_store =
+      StoreRestore::ThroughReader(SqliteMapStore::Opener(dir_.File("semmap.db"), {}));
   restore.skip_sessions = {session_.id};
   auto second = SlamBackend::Start(session_.map_id, {}, nullptr, writer_.get(), restore);
   ASSERT_TRUE(second.ok()) << second.status().ToString();
