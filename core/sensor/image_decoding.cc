@@ -1,6 +1,7 @@
 #include "core/sensor/image_decoding.h"
 
 #include <cmath>
+#include <new>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
@@ -41,6 +42,13 @@ StatusOr<cv::Mat> WrapRaw(const ImageMessage& image, int w, int h, int cv_type,
   if (step < *min_step) {
     return InvalidArgumentError(std::string(what) + " step " + std::to_string(step) +
                                 " is less than width*bytes_per_pixel " + std::to_string(*min_step));
+  }
+  // Rows start on a whole sample (OpenCV refuses, by throwing, a step of e.g. 13 for 16UC1).
+  const uint64_t sample_bytes = CV_ELEM_SIZE1(cv_type);
+  if (step % sample_bytes != 0) {
+    return InvalidArgumentError(std::string(what) + " step " + std::to_string(step) +
+                                " is not a multiple of its " + std::to_string(sample_bytes) +
+                                "-byte samples (" + image.encoding + ")");
   }
   const std::optional<uint64_t> expected = CheckedMul(step, image.height);
   if (!expected || image.data.size() != *expected) {
@@ -83,9 +91,20 @@ StatusOr<cv::Mat> DecodeCompressed(const ImageMessage& image, DecodeTarget targe
   return decoded;
 }
 
-}  // namespace
+// OpenCV reports what it refuses by throwing; client bytes must never end the process, so the
+// public entry points turn what slipped past the checks above into a Status.
+template <typename Decode>
+auto GuardOpenCv(const char* what, Decode decode) -> decltype(decode()) {
+  try {
+    return decode();
+  } catch (const cv::Exception& e) {
+    return InvalidArgumentError(std::string(what) + " could not be decoded: " + e.msg);
+  } catch (const std::bad_alloc&) {
+    return ResourceExhaustedError(std::string("out of memory decoding the ") + what);
+  }
+}
 
-StatusOr<cv::Mat> DecodeColour(const ImageMessage& image, int w, int h) {
+StatusOr<cv::Mat> DecodeColourUnguarded(const ImageMessage& image, int w, int h) {
   cv::Mat out;
   if (image.kind == ImageMessage::Kind::kCompressed) {
     SEMMAP_ASSIGN_OR_RETURN(out,
@@ -107,7 +126,7 @@ StatusOr<cv::Mat> DecodeColour(const ImageMessage& image, int w, int h) {
   return out;
 }
 
-StatusOr<DecodedDepth> DecodeDepth(const DepthMessage& depth, int w, int h) {
+StatusOr<DecodedDepth> DecodeDepthUnguarded(const DepthMessage& depth, int w, int h) {
   const ImageMessage& image = depth.image;
   DecodedDepth out;
   const bool metres = image.kind == ImageMessage::Kind::kRaw && image.encoding == "32FC1";
@@ -139,6 +158,16 @@ StatusOr<DecodedDepth> DecodeDepth(const DepthMessage& depth, int w, int h) {
                                 "' (expected 16UC1, 32FC1, or 16-bit png)");
   }
   return out;
+}
+
+}  // namespace
+
+StatusOr<cv::Mat> DecodeColour(const ImageMessage& image, int w, int h) {
+  return GuardOpenCv("colour image", [&] { return DecodeColourUnguarded(image, w, h); });
+}
+
+StatusOr<DecodedDepth> DecodeDepth(const DepthMessage& depth, int w, int h) {
+  return GuardOpenCv("depth image", [&] { return DecodeDepthUnguarded(depth, w, h); });
 }
 
 StatusOr<EncodedImage> EncodeColourForStorage(const ImageMessage& original, const cv::Mat& bgr) {

@@ -205,6 +205,21 @@ TEST_F(HostileInputTest, RawImageSizesThatWrapAroundAreRefused) {
   ExpectServing();
 }
 
+// Found by fuzz_image_decode: a raw depth step that splits a 16-bit sample (321 bytes for 160
+// pixels) made OpenCV throw inside the session's decoder, ending the server.
+TEST_F(HostileInputTest, RawStepsThatSplitASampleAreRefused) {
+  v1::Frame frame = MakeFrame(2, At(0.4));
+  v1::RawImage* raw = frame.mutable_depth()->mutable_image()->mutable_raw();
+  raw->set_step(321);
+  raw->set_data(std::string(size_t{321} * 120, '\0'));
+  const Status status = Stream("split-sample", 2, std::move(frame));
+  ExpectStatus(status, StatusCode::kInvalidArgument,
+               "depth image step 321 is not a multiple of its 2-byte samples (16UC1)");
+  EXPECT_NE(status.message().find("frames up to seq 1 are stored"), std::string::npos);
+  EXPECT_EQ(StoredFrames("split-sample"), 2u);
+  ExpectServing();
+}
+
 // 2. A message that does not parse ended the session OK, dropping everything after it.
 TEST_F(HostileInputTest, UnparseableMessagesEndTheStreamWithInvalidArgument) {
   v1::Frame utf8 = MakeFrame(2, At(0.4));

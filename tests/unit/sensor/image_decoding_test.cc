@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
+#include <tuple>
 
 #include "tests/testing/synthetic_frames.h"
 
@@ -133,6 +134,27 @@ TEST(ImageDecodingTest, OverflowingRawSizesAreInvalidArgument) {
   wide.step = 0;
   EXPECT_NE(DecodeColour(wide, 0x7FFFFFFF, 1).status().message().find("needs 6442450941"),
             std::string::npos);
+}
+
+// Found by fuzz_image_decode: a client step that is no whole number of samples (13 bytes for
+// 16UC1) made OpenCV throw from the cv::Mat constructor, which ended the server.
+TEST(ImageDecodingTest, StepsThatSplitASampleAreInvalidArgument) {
+  for (const auto& [encoding, type, bytes] :
+       {std::tuple{"16UC1", CV_16UC1, 2}, std::tuple{"32FC1", CV_32FC1, 4}}) {
+    const cv::Mat depth(4, 3, type, cv::Scalar(1));
+    ImageMessage image = Raw(depth, encoding);
+    image.step = static_cast<uint32_t>(3 * bytes + 1);
+    image.data.assign(image.step * 4, '\0');
+    const StatusOr<DecodedDepth> decoded = DecodeDepth({image, 5000}, 3, 4);
+    ASSERT_FALSE(decoded.ok()) << encoding;
+    EXPECT_EQ(decoded.status().code(), StatusCode::kInvalidArgument);
+    EXPECT_NE(decoded.status().message().find("is not a multiple of its"), std::string::npos)
+        << decoded.status().message();
+    // A padded step of whole samples is fine.
+    image.step = static_cast<uint32_t>(4 * bytes);
+    image.data.assign(image.step * 4, '\0');
+    EXPECT_TRUE(DecodeDepth({image, 5000}, 3, 4).ok()) << encoding;
+  }
 }
 
 }  // namespace
