@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "common/logging.h"
+#include "common/thread_launcher.h"
 
 namespace semmap {
 
@@ -20,41 +21,84 @@ IngestManager::~IngestManager() {
   Join();
 }
 
-StatusOr<std::shared_ptr<IngestSession>> IngestManager::Open(std::shared_ptr<IngestSink> sink) {
-  std::lock_guard lock(mutex_);
+StatusOr<std::shared_ptr<IngestSessionHandle>> IngestManager::Open(
+    std::shared_ptr<IngestSink> sink) {
+  MutexLock lock(mutex_);
   if (shutting_down_) return UnavailableError("the server is shutting down");
-  ReapFinishedLocked();
-  if (sessions_.size() >= options_.max_streams) {
+  const size_t live =
+      static_cast<size_t>(std::count_if(sessions_.begin(), sessions_.end(), [](const auto& s) {
+        return !s.second.session->finished();
+      }));
+  if (live >= options_.max_streams) {
     return ResourceExhaustedError(
         "the server is at its limit of " + std::to_string(options_.max_streams) +
         " concurrent ingest streams (semmapd --max-streams); try again when one has ended");
   }
-  SEMMAP_ASSIGN_OR_RETURN(std::shared_ptr<IngestSession> session,
-                          IngestSession::Start(std::move(sink), writer_, options_,
-                                               [this](const SessionInfo& info, bool visual) {
-                                                 return PipelineFor(info, visual);
-                                               }));
-  sessions_.push_back(session);
-  return session;
+  // The server's own thread (options_.launch_thread is for the clients' threads).
+  if (!reaper_.joinable()) {
+    StatusOr<std::thread> reaper = LaunchThread([this] { Reap(); });
+    if (!reaper.ok()) return reaper.status();
+    reaper_ = std::move(reaper).value();
+  }
+  const uint64_t id = ++next_session_;
+  auto on_finished = [this, id] {
+    MutexLock finished_lock(mutex_);
+    finished_.push_back(id);
+    sessions_changed_.notify_all();
+  };
+  StatusOr<std::unique_ptr<IngestSession>> started = IngestSession::Start(
+      std::move(sink), writer_, options_,
+      [this](const SessionInfo& info, bool visual) { return PipelineFor(info, visual); },
+      std::move(on_finished));
+  if (!started.ok()) return started.status();
+  std::unique_ptr<IngestSession> session = std::move(started).value();
+  auto stream = std::make_shared<IngestSessionHandle>(session.get());
+  sessions_.emplace(id, LiveSession{std::move(session), stream});
+  return stream;
+}
+
+void IngestManager::Reap() {
+  MutexLock lock(mutex_);
+  for (;;) {
+    while (finished_.empty() && !stop_reaper_) sessions_changed_.wait(lock);
+    if (finished_.empty()) return;  // stop_reaper_: Join saw every session destroyed
+    std::vector<LiveSession> done;
+    for (const uint64_t id : finished_) {
+      auto it = sessions_.find(id);
+      if (it == sessions_.end()) continue;
+      done.push_back(std::move(it->second));
+      sessions_.erase(it);
+    }
+    finished_.clear();
+    lock.unlock();
+    for (LiveSession& live : done) {
+      live.stream->Release();  // the transport's later calls do nothing
+      live.session.reset();    // joins its threads; they have finished
+    }
+    done.clear();
+    lock.lock();
+    sessions_changed_.notify_all();
+  }
 }
 
 void IngestManager::BeginShutdown() {
-  std::lock_guard lock(mutex_);
+  MutexLock lock(mutex_);
   shutting_down_ = true;
-  for (auto& session : sessions_) session->Stop();
+  for (auto& [id, live] : sessions_) live.session->Stop();
 }
 
 void IngestManager::Join() {
-  std::vector<std::shared_ptr<IngestSession>> sessions;
   {
-    std::lock_guard lock(mutex_);
-    sessions.swap(sessions_);
+    MutexLock lock(mutex_);
+    // Every session finishes after BeginShutdown (it stores what it has queued first).
+    while (!sessions_.empty()) sessions_changed_.wait(lock);
+    stop_reaper_ = true;
+    sessions_changed_.notify_all();
   }
-  // Destroying the last reference joins the worker; a reactor may still hold one briefly.
-  sessions.clear();
+  if (reaper_.joinable()) reaper_.join();
   std::map<int64_t, OpenMap> maps;
   {
-    std::lock_guard lock(pipelines_mutex_);
+    MutexLock lock(pipelines_mutex_);
     maps.swap(pipelines_);
   }
   // Each stops its back end first: the last corrections still go to the layers and objects.
@@ -63,7 +107,7 @@ void IngestManager::Join() {
 
 StatusOr<std::shared_ptr<MapPipeline>> IngestManager::PipelineFor(const SessionInfo& session,
                                                                   bool visual) {
-  std::lock_guard lock(pipelines_mutex_);
+  MutexLock lock(pipelines_mutex_);
   if (busy_maps_.count(session.map_id) != 0) {
     return UnavailableError("map '" + session.map_name +
                             "' is being changed by an administrative removal; try again shortly");
@@ -131,7 +175,7 @@ StoreRestore IngestManager::Restore() const {
 Status IngestManager::BeginMapChange(int64_t map_id, const std::string& map_name) {
   std::shared_ptr<MapPipeline> taken;
   {
-    std::lock_guard lock(pipelines_mutex_);
+    MutexLock lock(pipelines_mutex_);
     if (busy_maps_.count(map_id) != 0) {
       return FailedPreconditionError("map '" + map_name + "' is already being changed");
     }
@@ -139,11 +183,13 @@ Status IngestManager::BeginMapChange(int64_t map_id, const std::string& map_name
   }
   {
     // A session that created its row but has not reached PipelineFor yet fails there (busy).
-    std::unique_lock lock(mutex_);
-    ReapFinishedLocked();
-    const bool streaming = std::any_of(sessions_.begin(), sessions_.end(),
-                                       [&](const auto& s) { return s->map_id() == map_id; });
-    lock.unlock();
+    bool streaming = false;
+    {
+      MutexLock lock(mutex_);
+      streaming = std::any_of(sessions_.begin(), sessions_.end(), [&](const auto& s) {
+        return !s.second.session->finished() && s.second.session->map_id() == map_id;
+      });
+    }
     if (streaming) {
       EndMapChange(map_id);
       return FailedPreconditionError("map '" + map_name +
@@ -152,7 +198,7 @@ Status IngestManager::BeginMapChange(int64_t map_id, const std::string& map_name
     }
   }
   {
-    std::lock_guard lock(pipelines_mutex_);
+    MutexLock lock(pipelines_mutex_);
     auto it = pipelines_.find(map_id);
     if (it != pipelines_.end()) {
       taken = std::move(it->second.pipeline);
@@ -164,7 +210,7 @@ Status IngestManager::BeginMapChange(int64_t map_id, const std::string& map_name
 }
 
 void IngestManager::EndMapChange(int64_t map_id) {
-  std::lock_guard lock(pipelines_mutex_);
+  MutexLock lock(pipelines_mutex_);
   busy_maps_.erase(map_id);
 }
 
@@ -175,7 +221,7 @@ Status IngestManager::RebuildDerived(int64_t map_id, const std::string& map_name
   SEMMAP_RETURN_IF_ERROR(
       rebuilt->FlushConsumers().WithContext("rebuilding the map's layers and objects"));
   // Kept for the map's next session (its back end is created then, from the store).
-  std::lock_guard lock(pipelines_mutex_);
+  MutexLock lock(pipelines_mutex_);
   pipelines_[map_id] = OpenMap{std::move(rebuilt), ++use_counter_};
   EvictIdleLocked(options_.max_idle_maps, options_.max_open_maps);
   return OkStatus();
@@ -238,20 +284,20 @@ StatusOr<RemovedCounts> IngestManager::RemoveMap(const std::string& map,
 }
 
 size_t IngestManager::open_maps() {
-  std::lock_guard lock(pipelines_mutex_);
+  MutexLock lock(pipelines_mutex_);
   return pipelines_.size();
 }
 
 size_t IngestManager::active_sessions() {
-  std::lock_guard lock(mutex_);
-  ReapFinishedLocked();
-  return sessions_.size();
+  MutexLock lock(mutex_);
+  return static_cast<size_t>(std::count_if(sessions_.begin(), sessions_.end(), [](const auto& s) {
+    return !s.second.session->finished();
+  }));
 }
 
-void IngestManager::ReapFinishedLocked() {
-  sessions_.erase(std::remove_if(sessions_.begin(), sessions_.end(),
-                                 [](const auto& s) { return s->finished(); }),
-                  sessions_.end());
+size_t IngestManager::owned_sessions() {
+  MutexLock lock(mutex_);
+  return sessions_.size();
 }
 
 }  // namespace semmap

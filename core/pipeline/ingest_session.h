@@ -1,26 +1,28 @@
 // One ingest stream's pipeline, two stages joined by bounded queues: a decoder thread drains
 // the input queue and decodes images (PNG/JPEG decoding costs about as much as tracking, so it
-// overlaps with the previous frame's tracking); the worker thread validates, estimates the pose,
-// decides keyframes and hands batches to the storage writer and the SLAM back end.
+// overlaps with the previous frame's tracking); the worker thread checks the protocol
+// (FrameProtocol), turns frames into poses and write batches (FrameIngestor), hands them to the
+// storage writer and the map's pipeline, and reports (SessionReport, CommitTracker).
+//
+// Owned by the IngestManager alone (transports hold an IngestSessionHandle); destroyed on the
+// manager's reaper thread after `on_finished`, never on one of the session's own threads.
 #pragma once
 
 #include <atomic>
-#include <chrono>
-#include <condition_variable>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <opencv2/core/mat.hpp>
 #include <optional>
 #include <thread>
 
 #include "common/bounded_queue.h"
-#include "common/latency_stats.h"
-#include "core/pipeline/frame_processor.h"
+#include "core/pipeline/commit_tracker.h"
+#include "core/pipeline/frame_ingestor.h"
 #include "core/pipeline/ingest_options.h"
+#include "core/pipeline/ingest_protocol.h"
 #include "core/pipeline/ingest_types.h"
 #include "core/pipeline/map_pipeline.h"
-#include "core/slam/slam_backend.h"
+#include "core/pipeline/session_report.h"
 #include "storage/storage_writer.h"
 
 namespace semmap {
@@ -34,12 +36,16 @@ class IngestSession {
  public:
   // Starts the session's two threads (through options.launch_thread). `pipelines` may be empty:
   // visual sessions then run their front end alone (no loop closure) and no map layers are
-  // built. RESOURCE_EXHAUSTED when a thread cannot be started (nothing is left running).
-  static StatusOr<std::shared_ptr<IngestSession>> Start(std::shared_ptr<IngestSink> sink,
+  // built. `on_finished` (may be empty) runs once on the worker thread as its last action,
+  // after the sink's OnFinished: the owner may then destroy the session (not from inside the
+  // callback). RESOURCE_EXHAUSTED when a thread cannot be started (nothing is left running).
+  static StatusOr<std::unique_ptr<IngestSession>> Start(std::shared_ptr<IngestSink> sink,
                                                         StorageWriter* writer,
                                                         IngestOptions options,
-                                                        MapPipelineProvider pipelines = nullptr);
-  ~IngestSession();  // stops and joins the worker
+                                                        MapPipelineProvider pipelines = nullptr,
+                                                        std::function<void()> on_finished = {});
+  // Stops the stream (as Stop) and joins both threads.
+  ~IngestSession();
   IngestSession(const IngestSession&) = delete;
   IngestSession& operator=(const IngestSession&) = delete;
 
@@ -62,7 +68,7 @@ class IngestSession {
 
  private:
   IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* writer, IngestOptions options,
-                MapPipelineProvider pipelines);
+                MapPipelineProvider pipelines, std::function<void()> on_finished);
 
   // A message on its way from the decoder to the worker: frames carry their decoded images
   // (or the decoding error) next to the wire message, which keyframes store as received.
@@ -83,64 +89,28 @@ class IngestSession {
   Status Handle(StagedMessage& staged);
   Status HandleStart(const IngestStartRequest& start);
   Status HandleFrame(IngestFrame& frame, std::optional<StatusOr<DecodedImages>>& images);
-  // Order, size and presence checks first (their errors win), then the decoded images.
-  StatusOr<DecodedFrame> Validate(const IngestFrame& frame,
-                                  std::optional<StatusOr<DecodedImages>>& images) const;
-  Status SubmitFrame(const DecodedFrame& frame, const IngestFrame& wire,
-                     const FrameEstimate& estimate);
-  void OnCommitted(const Status& status, uint64_t seq,
-                   std::chrono::steady_clock::time_point submitted_at);
+  Status Submit(WriteBatch batch, uint64_t seq);
+  void OnCommitted(const Status& status, uint64_t seq, double latency_ms);
   // `reason` is how the stream ended as the worker saw it; a failing drain or write turns a
   // completed end into an error.
   void Finish(Status status, SessionEndReason reason);
-  // A keyframe goes to the map's consumers (layers, objects), after its write was submitted.
-  Status PublishKeyframe(const DecodedFrame& frame, const FrameEstimate& estimate);
-  // Hands the frame (and its keyframe) to the back end, after its write was submitted.
-  Status FeedBackend(const DecodedFrame& frame, const FrameEstimate& estimate,
-                     const std::optional<uint64_t>& previous_keyframe_seq,
-                     const Eigen::Isometry3d& T_world_previous_keyframe);
-  void ApplyPendingCorrection();
-  std::optional<uint64_t> durable_seq() const;
 
   std::shared_ptr<IngestSink> sink_;
   StorageWriter* writer_;
   const IngestOptions options_;
+  const std::function<void()> on_finished_;
   BoundedQueue<IngestMessage> queue_;
   BoundedQueue<StagedMessage> staged_{kStagedCapacity};
 
   // Worker-thread state.
-  std::optional<SessionInfo> session_;
-  std::unique_ptr<FrameProcessor> processor_;
   MapPipelineProvider pipelines_;
-  std::shared_ptr<MapPipeline> map_;  // released when the session finishes
-  SlamBackend* backend_ = nullptr;    // map_'s, for visual sessions
-  // Corrections from the back end's thread, applied before the next frame is tracked.
-  std::mutex correction_mutex_;
-  std::optional<Eigen::Isometry3d> pending_correction_;
-  std::optional<uint64_t> last_seq_;
-  std::optional<uint64_t> last_keyframe_seq_;
-  Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
+  FrameProtocol protocol_;
+  std::optional<SessionInfo> row_;           // the session's stored row, once created
+  std::unique_ptr<FrameIngestor> ingestor_;  // from the accepted start message on
   bool ended_ = false;
-  std::chrono::steady_clock::time_point started_at_;
-  // Worker-thread stage timings (storage_commit_ms_ is guarded by commit_mutex_).
-  LatencyStats decode_ms_{"decode"};
-  LatencyStats tracking_ms_{"tracking"};
-  LatencyStats keyframe_ms_{"keyframe"};
-  LatencyStats frame_ms_{"frame"};
+  SessionReport report_;
+  CommitTracker commits_;  // shared with the writer thread's commit callbacks
 
-  // Shared with the writer thread's commit callbacks.
-  mutable std::mutex commit_mutex_;
-  std::condition_variable all_committed_;
-  size_t pending_writes_ = 0;
-  std::optional<uint64_t> durable_seq_;
-  Status write_error_;
-  LatencyStats storage_commit_ms_{"storage_commit"};
-
-  std::atomic<uint64_t> received_{0};
-  std::atomic<uint64_t> frames_{0};  // read by commit callbacks for progress
-  std::atomic<uint64_t> keyframes_{0};
-  uint64_t lost_frames_ = 0;
-  uint64_t segments_ = 0;            // restarts after a sustained tracking loss
   std::atomic<int> stop_reason_{0};  // 0 none, 1 cancelled, 2 server stop, 3 deadline passed
   std::atomic<int64_t> map_id_{0};
   std::atomic<bool> finished_{false};

@@ -43,20 +43,20 @@ class IngestReactor::Sink final : public IngestSink {
 
 IngestReactor::IngestReactor(grpc::CallbackServerContext* context, IngestManager* manager)
     : context_(context), sink_(std::make_shared<Sink>(this)) {
-  // Open starts the session's threads, which may call the Sink (QueueRoom reads session_ and
+  // Open starts the session's threads, which may call the Sink (QueueRoom reads stream_ and
   // read_in_flight_) before this constructor finishes: the state is set under the lock.
-  StatusOr<std::shared_ptr<IngestSession>> session = manager->Open(sink_);
+  StatusOr<std::shared_ptr<IngestSessionHandle>> stream = manager->Open(sink_);
   {
     MutexLock lock(mutex_);
-    if (!session.ok()) {
+    if (!stream.ok()) {
       finish_called_ = true;
     } else {
-      session_ = std::move(session).value();
+      stream_ = std::move(stream).value();
       read_in_flight_ = true;
     }
   }
-  if (!session.ok()) {
-    Finish(ToGrpcStatus(session.status()));
+  if (!stream.ok()) {
+    Finish(ToGrpcStatus(stream.status()));
     return;
   }
   StartRead(&request_);
@@ -70,15 +70,15 @@ void IngestReactor::Run(const Actions& actions) {
 
 void IngestReactor::PushToSessionLocked(IngestMessage message) {
   // Reads start only while the queue has room and only this reactor enqueues, so this holds.
-  if (!session_->TryEnqueue(message)) {
+  if (!stream_->TryEnqueue(message)) {
     reads_closed_ = true;
-    session_->Stop();
+    stream_->Stop();
   }
 }
 
 void IngestReactor::DecideReadLocked(Actions* actions) {
-  if (read_in_flight_ || reads_closed_ || finish_status_ || !session_) return;
-  if (!end_held_ && !session_->HasRoom()) return;        // QueueRoom() resumes
+  if (read_in_flight_ || reads_closed_ || finish_status_ || !stream_) return;
+  if (!end_held_ && !stream_->HasRoom()) return;         // QueueRoom() resumes
   if (outgoing_.size() >= kMaxPendingResponses) return;  // OnWriteDone resumes
   read_in_flight_ = true;
   actions->read = true;
@@ -158,16 +158,16 @@ void IngestReactor::OnWriteDone(bool ok) {
 }
 
 void IngestReactor::OnCancel() {
-  std::shared_ptr<IngestSession> session;
+  std::shared_ptr<IngestSessionHandle> stream;
   {
     MutexLock lock(mutex_);
     client_gone_ = true;
     reads_closed_ = true;
     outgoing_.clear();
-    session = session_;
+    stream = stream_;
   }
   // The session still stores what it has queued, then reports Finished.
-  if (session) session->Cancel(context_->deadline() <= std::chrono::system_clock::now());
+  if (stream) stream->Cancel(context_->deadline() <= std::chrono::system_clock::now());
 }
 
 void IngestReactor::OnDone() {

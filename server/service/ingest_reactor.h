@@ -59,8 +59,9 @@ class IngestReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer, grp
 
   // Lock order: the Sink's mutex (held while it calls the reactor) before this one.
   Mutex mutex_;
-  // Set in the constructor once Open returns, when the session may already call the Sink.
-  std::shared_ptr<IngestSession> session_ SEMMAP_GUARDED_BY(mutex_);
+  // Set in the constructor once Open returns, when the session may already call the Sink. A handle:
+  // the IngestManager owns the session and destroys it off the network threads.
+  std::shared_ptr<IngestSessionHandle> stream_ SEMMAP_GUARDED_BY(mutex_);
   // gRPC fills it between StartRead and OnReadDone; read here only under mutex_.
   grpc::ByteBuffer request_ SEMMAP_GUARDED_BY(mutex_);
   uint64_t messages_read_ SEMMAP_GUARDED_BY(mutex_) = 0;

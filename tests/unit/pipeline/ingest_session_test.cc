@@ -52,8 +52,8 @@ class IngestSessionTest : public ::testing::Test {
     return frame;
   }
 
-  std::shared_ptr<IngestSession> StartSession(IngestOptions options = {}) {
-    StatusOr<std::shared_ptr<IngestSession>> session =
+  std::unique_ptr<IngestSession> StartSession(IngestOptions options = {}) {
+    StatusOr<std::unique_ptr<IngestSession>> session =
         IngestSession::Start(sink_, writer_.get(), std::move(options));
     EXPECT_TRUE(session.ok()) << session.status().ToString();
     return session.ok() ? std::move(session).value() : nullptr;
@@ -82,7 +82,7 @@ class IngestSessionTest : public ::testing::Test {
 };
 
 TEST_F(IngestSessionTest, StoresFramesAndReportsDurableSeq) {
-  std::shared_ptr<IngestSession> session = StartSession();
+  std::unique_ptr<IngestSession> session = StartSession();
   std::vector<IngestMessage> messages;
   messages.push_back(Start("a"));
   for (int i = 0; i < 10; ++i) messages.push_back(Frame(i, 0.06 * i));
@@ -104,13 +104,13 @@ TEST_F(IngestSessionTest, StoresFramesAndReportsDurableSeq) {
 }
 
 TEST_F(IngestSessionTest, FrameBeforeStartFails) {
-  std::shared_ptr<IngestSession> session = StartSession();
+  std::unique_ptr<IngestSession> session = StartSession();
   Feed(*session, {Frame(0, 0)});
   EXPECT_EQ(sink_->Wait().code(), StatusCode::kInvalidArgument);
 }
 
 TEST_F(IngestSessionTest, ErrorKeepsEarlierFrames) {
-  std::shared_ptr<IngestSession> session = StartSession();
+  std::unique_ptr<IngestSession> session = StartSession();
   Feed(*session, {Start("b"), Frame(0, 0), Frame(1, 0), Frame(1, 0)});
   const Status status = sink_->Wait();
   EXPECT_EQ(status.code(), StatusCode::kInvalidArgument);
@@ -125,7 +125,7 @@ TEST_F(IngestSessionTest, ErrorKeepsEarlierFrames) {
 
 // Stored seqs are int64: a larger one is refused before it is acknowledged.
 TEST_F(IngestSessionTest, SeqAbove2To63IsRefusedBeforeItsAck) {
-  std::shared_ptr<IngestSession> session = StartSession();
+  std::unique_ptr<IngestSession> session = StartSession();
   Feed(*session, {Start("seq"), Frame(0, 0), Frame(uint64_t{1} << 63, 0.2)});
   const Status status = sink_->Wait();
   EXPECT_EQ(status.code(), StatusCode::kInvalidArgument);
@@ -138,7 +138,7 @@ TEST_F(IngestSessionTest, SeqAbove2To63IsRefusedBeforeItsAck) {
 TEST_F(IngestSessionTest, IdleStreamEndsWithDeadlineExceededKeepingItsFrames) {
   IngestOptions options;
   options.idle_timeout_s = 0.3;
-  std::shared_ptr<IngestSession> session = StartSession(options);
+  std::unique_ptr<IngestSession> session = StartSession(options);
   Feed(*session, {Start("idle"), Frame(0, 0), Frame(1, 0.2)});
   const Status status = sink_->Wait();  // nothing more is sent
   EXPECT_EQ(status.code(), StatusCode::kDeadlineExceeded);
@@ -162,7 +162,7 @@ TEST_F(IngestSessionTest, ThreadStartFailureIsResourceExhausted) {
       if (++*calls == fail_at) return ResourceExhaustedError("no threads left (test)");
       return LaunchThread(std::move(body));
     };
-    StatusOr<std::shared_ptr<IngestSession>> session =
+    StatusOr<std::unique_ptr<IngestSession>> session =
         IngestSession::Start(sink_, writer_.get(), options);
     ASSERT_FALSE(session.ok()) << fail_at;
     EXPECT_EQ(session.status().code(), StatusCode::kResourceExhausted);
@@ -172,7 +172,7 @@ TEST_F(IngestSessionTest, ThreadStartFailureIsResourceExhausted) {
 }
 
 TEST_F(IngestSessionTest, CancelStoresQueuedFramesAndReportsCancelled) {
-  std::shared_ptr<IngestSession> session = StartSession();
+  std::unique_ptr<IngestSession> session = StartSession();
   Feed(*session, {Start("c"), Frame(0, 0), Frame(1, 0.2)});
   session->Cancel();
   EXPECT_EQ(sink_->Wait().code(), StatusCode::kCancelled);
@@ -196,7 +196,7 @@ TEST_F(IngestSessionTest, QueueIsBounded) {
     (void)s;
   });
   holding.get_future().wait();
-  std::shared_ptr<IngestSession> session = StartSession(options);
+  std::unique_ptr<IngestSession> session = StartSession(options);
   IngestMessage start = Start("d");
   ASSERT_TRUE(session->TryEnqueue(start));
   int accepted = 0;

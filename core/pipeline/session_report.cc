@@ -1,0 +1,63 @@
+#include "core/pipeline/session_report.h"
+
+#include <utility>
+
+#include "common/logging.h"
+
+namespace semmap {
+
+void SessionReport::Processed(const FrameEstimate& estimate) {
+  frames_.fetch_add(1);
+  if (estimate.is_keyframe) keyframes_.fetch_add(1);
+  if (estimate.lost) ++lost_frames_;
+  if (estimate.new_segment) ++segments_;
+}
+
+IngestProgressInfo SessionReport::Progress(std::optional<uint64_t> durable_seq,
+                                           uint32_t queue_depth) const {
+  IngestProgressInfo progress;
+  progress.durable_seq = durable_seq;
+  progress.frames_received = received_.load();
+  progress.frames_processed = frames_.load();
+  progress.keyframes = keyframes_.load();
+  progress.queue_depth = queue_depth;
+  return progress;
+}
+
+IngestSummaryInfo SessionReport::Summary(const SessionInfo* session,
+                                         const LatencySummary& storage_commit,
+                                         std::optional<uint64_t> durable_seq,
+                                         MapSessionReport map) const {
+  IngestSummaryInfo summary;
+  if (session != nullptr) {
+    summary.map = session->map_name;
+    summary.session = session->name;
+  }
+  summary.frames = frames_.load();
+  summary.lost_frames = lost_frames_;
+  summary.new_segments = segments_;
+  summary.loop_closures = map.loop_closures;
+  summary.keyframes = keyframes_.load();
+  summary.durable_seq = durable_seq;
+  summary.duration_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started_at_).count();
+  summary.stages = {decode_ms_.Summarize(), tracking_ms_.Summarize(), keyframe_ms_.Summarize(),
+                    storage_commit, frame_ms_.Summarize()};
+  for (LatencySummary& stage : map.stages) summary.stages.push_back(std::move(stage));
+  return summary;
+}
+
+void SessionReport::LogEnd(const SessionInfo& session, const MapSessionReport& map) const {
+  if (!map.backend) return;
+  const SlamBackendStats& stats = *map.backend;
+  LogInfo(
+      "session '{}' of map '{}' ended: {} lost frames, {} restarts; map back end: {} "
+      "keyframes ({} restored), {} loop candidates, {} accepted, {} rejected by geometry, {} "
+      "by xi, {} taken back by the graph, {} optimisations ({} failed), queue high water {}",
+      session.name, session.map_name, lost_frames_, segments_, stats.keyframes,
+      stats.restored_keyframes, stats.candidates, stats.loops_accepted, stats.rejected_geometry,
+      stats.rejected_xi, stats.rejected_inconsistent, stats.optimisations,
+      stats.failed_optimisations, stats.queue_high_water);
+}
+
+}  // namespace semmap
