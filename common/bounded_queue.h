@@ -3,6 +3,7 @@
 // apply backpressure upstream; nothing here grows without bound.
 #pragma once
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
@@ -26,6 +27,7 @@ class BoundedQueue {
     while (!shutdown_ && items_.size() >= capacity_) not_full_.wait(lock);
     if (shutdown_) return false;
     items_.push_back(std::move(item));
+    high_water_ = std::max(high_water_, items_.size());
     not_empty_.notify_one();
     return true;
   }
@@ -35,6 +37,7 @@ class BoundedQueue {
     MutexLock lock(mutex_);
     if (shutdown_ || items_.size() >= capacity_) return false;
     items_.push_back(std::move(item));
+    high_water_ = std::max(high_water_, items_.size());
     not_empty_.notify_one();
     return true;
   }
@@ -71,6 +74,11 @@ class BoundedQueue {
     not_full_.notify_all();
   }
 
+  // The most items it held at once (right after a push).
+  size_t high_water() const SEMMAP_EXCLUDES(mutex_) {
+    MutexLock lock(mutex_);
+    return high_water_;
+  }
   size_t size() const SEMMAP_EXCLUDES(mutex_) {
     MutexLock lock(mutex_);
     return items_.size();
@@ -95,6 +103,7 @@ class BoundedQueue {
   std::condition_variable_any not_empty_;  // waits on a MutexLock of mutex_
   std::condition_variable_any not_full_;
   std::deque<T> items_ SEMMAP_GUARDED_BY(mutex_);
+  size_t high_water_ SEMMAP_GUARDED_BY(mutex_) = 0;
   bool shutdown_ SEMMAP_GUARDED_BY(mutex_) = false;
 };
 

@@ -112,7 +112,6 @@ class PipelineStage {
       return OkStatus();
     }
     if (!IsRunning() || !queue_.Push(Item{std::move(event), Clock::now()})) return StoppedError();
-    NoteDepth();
     return OkStatus();
   }
 
@@ -128,7 +127,6 @@ class PipelineStage {
       return ResourceExhaustedError(config_.name + " queue is full (" +
                                     std::to_string(queue_.capacity()) + " events)");
     }
-    NoteDepth();
     return OkStatus();
   }
 
@@ -171,6 +169,7 @@ class PipelineStage {
     m.name = config_.name;
     m.queue_depth = queue_.size();
     m.queue_capacity = queue_.capacity();
+    m.queue_high_water = queue_.high_water();
     m.queue_wait_ms = queue_wait_ms_.Summarize();
     m.handle_ms = handle_ms_.Summarize();
     return m;
@@ -209,12 +208,6 @@ class PipelineStage {
     return started_ && !stopped_;
   }
   Status StoppedError() const { return UnavailableError(config_.name + " stopped"); }
-
-  void NoteDepth() SEMMAP_EXCLUDES(metrics_mutex_) {
-    const size_t depth = queue_.size();
-    MutexLock lock(metrics_mutex_);
-    metrics_.queue_high_water = std::max(metrics_.queue_high_water, depth);
-  }
 
   void HandleTimed(Event& event, Clock::time_point submitted) SEMMAP_EXCLUDES(metrics_mutex_) {
     const Clock::time_point start = Clock::now();

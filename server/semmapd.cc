@@ -8,6 +8,7 @@
 
 #include "common/arg_parser.h"
 #include "common/logging.h"
+#include "common/memory_trim.h"
 #include "server/semmap_server.h"
 
 namespace {
@@ -82,6 +83,8 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
                           args.GetDouble("map-max-range", map.occupancy.max_range_m));
   SEMMAP_ASSIGN_OR_RETURN(map.cloud.leaf_size_m,
                           args.GetDouble("cloud-voxel", map.cloud.leaf_size_m));
+  SEMMAP_ASSIGN_OR_RETURN(map.occupancy.keyframe_voxel_m,
+                          args.GetDouble("map-keyframe-voxel", map.occupancy.keyframe_voxel_m));
   const std::string objects = args.Get("objects", "on");
   if (objects != "on" && objects != "off") {
     return semmap::InvalidArgumentError("--objects must be on or off");
@@ -105,6 +108,9 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Before any thread starts: sessions and map stages run many threads whose freed memory
+  // would otherwise scatter over up to 8 malloc arenas per core.
+  semmap::LimitAllocatorArenas(4);
   semmap::ArgParser args;
   args.AddFlag("listen", "HOST:PORT",
                "address to serve on (default 127.0.0.1:50051; port 0 picks one)");
@@ -140,6 +146,9 @@ int main(int argc, char** argv) {
   args.AddFlag("map-resolution", "M", "occupancy voxel size in metres (default 0.05)");
   args.AddFlag("map-max-range", "M", "depth beyond this is not mapped (default 4.0)");
   args.AddFlag("cloud-voxel", "M", "point-cloud voxel-grid leaf in metres (default 0.02)");
+  args.AddFlag("map-keyframe-voxel", "M",
+               "each keyframe's cloud is kept as one mean point per cube of this edge, what the "
+               "map holds per keyframe for rebuilds (default 0.02; 0: every sampled pixel)");
   args.AddFlag("objects", "on|off", "recognise registered objects in RGBD keyframes (default on)");
   args.AddFlag("object-max-xi", "X",
                "object neighbour check: reject a detection whose matches exceed its best "

@@ -44,6 +44,7 @@ std::string ServerOptions::ToString() const {
       << " map_layers=" << (ingest.layers.enabled ? "on" : "off")
       << " map_resolution=" << ingest.layers.occupancy.resolution_m
       << " map_max_range=" << ingest.layers.occupancy.max_range_m
+      << " map_keyframe_voxel=" << ingest.layers.occupancy.keyframe_voxel_m
       << " cloud_voxel=" << ingest.layers.cloud.leaf_size_m
       << " objects=" << (ingest.objects.enabled ? "on" : "off")
       << " object_max_xi=" << recognition.max_xi

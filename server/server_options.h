@@ -11,6 +11,10 @@
 namespace semmap {
 
 struct ServerOptions {
+  // Library defaults, except what a long-running server wants: compact keyframe clouds.
+  ServerOptions() { ingest.layers.occupancy.keyframe_voxel_m = kServerKeyframeVoxelM; }
+  static constexpr double kServerKeyframeVoxelM = 0.02;
+
   std::string listen = "127.0.0.1:50051";
   std::string data_dir = "./semmap-data";
   LogLevel log_level = LogLevel::kInfo;  // semmapd applies it process-wide (SetLogLevel)

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "common/logging.h"
+#include "common/memory_trim.h"
 #include "common/thread_launcher.h"
 #include "common/thread_priority.h"
 #include "common/time_util.h"
@@ -276,6 +277,7 @@ void MapLayerBuilder::Rebuild() {
     return;
   }
   occupancy_ = std::move(rebuilt).value();  // the swap: the old tree served until now
+  ReleaseFreedMemory();                     // the old tree's nodes
   size_t inserted = 0;
   for (auto& [key, entry] : entries_) {
     entry.inserted = entry.cloud && entry.T_world_keyframe && InLayerFrame(key, entry).has_value();
@@ -328,6 +330,7 @@ void MapLayerBuilder::Persist() {
   if (origin_)
     batch.blobs.push_back({map_id_, kLayerOriginBlobKind, EncodeLayerOrigin(*origin_), now});
   writes_.Submit(std::move(batch));
+  ReleaseFreedMemory();  // the cloud build's temporaries
   std::lock_guard lock(mutex_);
   persist_ms_.Add(MillisecondsSince(t0));
 }

@@ -13,6 +13,8 @@
 #include <new>
 #include <optional>
 #include <sstream>
+#include <unordered_map>
+#include <vector>
 
 #include "common/checked_math.h"
 
@@ -258,8 +260,57 @@ Status OccupancyMapOptions::Validate() const {
   if (pixel_step < 1 || pixel_step > 64) {
     return InvalidArgumentError("occupancy map pixel step must be in [1, 64]");
   }
+  if (!std::isfinite(keyframe_voxel_m) ||
+      (keyframe_voxel_m != 0 && (keyframe_voxel_m < 0.001 || keyframe_voxel_m > resolution_m))) {
+    return InvalidArgumentError(
+        "keyframe voxel must be 0 (off) or in [0.001 m, the occupancy resolution]");
+  }
   return OkStatus();
 }
+
+namespace {
+
+// One mean point and colour per voxel-edge cube, in the order the cubes were first hit. The
+// points come from one depth image within max range, so cube indices fit in 21 bits each.
+KeyframeCloud VoxelMeans(const KeyframeCloud& cloud, double voxel) {
+  struct Sum {
+    Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
+    std::array<uint32_t, 3> bgr{};
+    uint32_t count = 0;
+  };
+  std::unordered_map<uint64_t, uint32_t> slot;
+  slot.reserve(cloud.size());
+  std::vector<Sum> sums;
+  const double inverse = 1.0 / voxel;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f& p = cloud.points[i];
+    uint64_t key = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const auto index = static_cast<int64_t>(std::floor(p[axis] * inverse)) + (int64_t{1} << 20);
+      key = (key << 21) | (static_cast<uint64_t>(index) & ((uint64_t{1} << 21) - 1));
+    }
+    const auto [it, added] = slot.try_emplace(key, static_cast<uint32_t>(sums.size()));
+    if (added) sums.emplace_back();
+    Sum& sum = sums[it->second];
+    sum.xyz += p.cast<double>();
+    for (int c = 0; c < 3; ++c) sum.bgr[c] += cloud.colours[i][c];
+    ++sum.count;
+  }
+  KeyframeCloud out;
+  out.points.reserve(sums.size());
+  out.colours.reserve(sums.size());
+  for (const Sum& sum : sums) {
+    out.points.push_back((sum.xyz / sum.count).cast<float>());
+    std::array<uint8_t, 3> bgr{};
+    for (int c = 0; c < 3; ++c) {
+      bgr[c] = static_cast<uint8_t>((sum.bgr[c] + sum.count / 2) / sum.count);
+    }
+    out.colours.push_back(bgr);
+  }
+  return out;
+}
+
+}  // namespace
 
 StatusOr<KeyframeCloud> MakeKeyframeCloud(const DecodedDepth& depth, const cv::Mat& bgr,
                                           const CameraCalibration& camera,
@@ -320,6 +371,7 @@ StatusOr<KeyframeCloud> MakeKeyframeCloud(const DecodedDepth& depth, const cv::M
       }
     }
   }
+  if (options.keyframe_voxel_m > 0) return VoxelMeans(cloud, options.keyframe_voxel_m);
   return cloud;
 }
 

@@ -47,8 +47,14 @@ struct OccupancyMapOptions {
   double max_range_m = 4.0;    // points farther from the camera are dropped
   int pixel_step = 4;          // use every pixel_step-th depth pixel in x and y
   bool discretize = true;      // OctoMap's fast insertion (one ray per end voxel)
+  // Each keyframe cloud is reduced to one point (the mean, with the mean colour) per cube of
+  // this edge in the keyframe's frame, 0 for every pixel. What a map keeps per keyframe for its
+  // rebuilds: near surfaces give many points per occupancy voxel that the tree merges anyway.
+  // semmapd uses 0.02 (--map-keyframe-voxel).
+  double keyframe_voxel_m = 0;
 
-  // resolution in [1 mm, 1 m], max range in (0, 50] m, pixel step in [1, 64], all finite.
+  // resolution in [1 mm, 1 m], max range in (0, 50] m, pixel step in [1, 64], keyframe voxel
+  // 0 or in [1 mm, resolution], all finite.
   Status Validate() const;
 };
 
@@ -61,9 +67,10 @@ struct KeyframeCloud {
 };
 
 // Back-projects every pixel_step-th pixel (starting at pixel_step / 2) with valid depth
-// within max_range_m (Euclidean distance from the camera). `bgr` is CV_8UC3 (or CV_8UC1 grey)
-// of the depth's size; the calibration's size must match too. Distortion is undone
-// iteratively. INVALID_ARGUMENT for a wrong type, size, scale or calibration.
+// within max_range_m (Euclidean distance from the camera), then keeps one mean point per
+// keyframe_voxel_m cube when that is set (in the order the cubes were first hit). `bgr` is CV_8UC3
+// (or CV_8UC1 grey) of the depth's size; the calibration's size must match too. Distortion is
+// undone iteratively. INVALID_ARGUMENT for a wrong type, size, scale or calibration.
 StatusOr<KeyframeCloud> MakeKeyframeCloud(const DecodedDepth& depth, const cv::Mat& bgr,
                                           const CameraCalibration& camera,
                                           const OccupancyMapOptions& options);

@@ -95,6 +95,9 @@ Status PointCloudMapOptions::Validate() const {
     return InvalidArgumentError("point cloud leaf size must be in [0.001, 1] m, got " +
                                 std::to_string(leaf_size_m));
   }
+  if (max_points_per_piece < 1000) {
+    return InvalidArgumentError("point cloud pieces must hold at least 1000 points");
+  }
   return OkStatus();
 }
 
@@ -102,7 +105,6 @@ StatusOr<PointCloudMap> PointCloudMap::Build(
     const std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>>& keyframes,
     const PointCloudMapOptions& options) {
   SEMMAP_RETURN_IF_ERROR(options.Validate());
-  size_t total = 0;
   for (size_t i = 0; i < keyframes.size(); ++i) {
     const auto& [cloud, T_world_keyframe] = keyframes[i];
     if (cloud == nullptr)
@@ -115,32 +117,36 @@ StatusOr<PointCloudMap> PointCloudMap::Build(
     if (!IsFinite(T_world_keyframe)) {
       return InvalidArgumentError("keyframe " + std::to_string(i) + ": non-finite pose");
     }
-    total += cloud->size();
   }
 
   try {
-    // Concatenate in the world frame (float, as PCL stores it).
-    auto world = std::make_shared<PclCloud>();
-    world->reserve(total);
-    Eigen::AlignedBox3f box;
-    for (const auto& [cloud, T_world_keyframe] : keyframes) {
-      const Eigen::Isometry3f T = T_world_keyframe.cast<float>();
-      for (size_t j = 0; j < cloud->size(); ++j) {
-        const Eigen::Vector3f p = T * cloud->points[j];
-        if (!p.allFinite()) continue;
-        const std::array<uint8_t, 3>& bgr = cloud->colours[j];
-        pcl::PointXYZRGB q(bgr[2], bgr[1], bgr[0]);
-        q.x = p.x();
-        q.y = p.y();
-        q.z = p.z();
-        world->push_back(q);
-        box.extend(p);
+    // World points are made on the fly, twice or more: once for their bounds, then once per
+    // slab (below); only one slab's points are held at a time, so a map of many keyframes does
+    // not hold all of its points again as a PCL cloud (32 bytes each) while it is filtered.
+    auto for_each_world_point = [&](const auto& visit) {
+      for (const auto& [cloud, T_world_keyframe] : keyframes) {
+        const Eigen::Isometry3f T = T_world_keyframe.template cast<float>();
+        for (size_t j = 0; j < cloud->size(); ++j) {
+          const Eigen::Vector3f p = T * cloud->points[j];
+          if (p.allFinite()) visit(p, cloud->colours[j]);
+        }
       }
-    }
-    world->is_dense = true;
-
+    };
+    auto to_pcl = [](const Eigen::Vector3f& p, const std::array<uint8_t, 3>& bgr) {
+      pcl::PointXYZRGB q(bgr[2], bgr[1], bgr[0]);
+      q.x = p.x();
+      q.y = p.y();
+      q.z = p.z();
+      return q;
+    };
+    Eigen::AlignedBox3f box;
+    size_t finite = 0;
+    for_each_world_point([&](const Eigen::Vector3f& p, const std::array<uint8_t, 3>&) {
+      box.extend(p);
+      ++finite;
+    });
     std::vector<CloudPoint> points;
-    if (world->empty()) return PointCloudMap(std::move(points), options);
+    if (finite == 0) return PointCloudMap(std::move(points), options);
 
     const float leaf = static_cast<float>(options.leaf_size_m);
     const float inverse_leaf = 1.0f / leaf;
@@ -148,31 +154,50 @@ StatusOr<PointCloudMap> PointCloudMap::Build(
     const Eigen::Array3d extent =
         ((box.max() - box.min()).cast<double>().array() / options.leaf_size_m).floor() + 2.0;
     const double leaves = extent.prod();
-    if (leaves <= static_cast<double>(kMaxLeavesPerPiece)) {
+    if (leaves <= static_cast<double>(kMaxLeavesPerPiece) &&
+        finite <= options.max_points_per_piece) {
+      auto world = std::make_shared<PclCloud>();
+      world->reserve(finite);
+      for_each_world_point([&](const Eigen::Vector3f& p, const std::array<uint8_t, 3>& bgr) {
+        world->push_back(to_pcl(p, bgr));
+      });
+      world->is_dense = true;
       FilterPiece(world, leaf, points);
-    } else {
-      // Slabs along x on leaf boundaries: every leaf falls wholly into one slab, so the
-      // result equals one big filter's.
-      const double yz = extent.y() * extent.z();
-      if (yz * 2.0 > static_cast<double>(kMaxLeavesPerPiece) || extent.x() > 1e15) {
-        return InvalidArgumentError("point cloud extent too large for a " +
-                                    std::to_string(options.leaf_size_m) + " m leaf");
-      }
-      const int64_t slab_leaves =
-          std::max<int64_t>(1, static_cast<int64_t>(kMaxLeavesPerPiece / yz) - 2);
-      const int64_t first = LeafIndex(box.min().x(), inverse_leaf);
-      std::map<int64_t, PclCloud::Ptr> slabs;
-      for (const pcl::PointXYZRGB& p : *world) {
-        const int64_t slab = (LeafIndex(p.x, inverse_leaf) - first) / slab_leaves;
-        PclCloud::Ptr& piece = slabs[slab];
+      return PointCloudMap(std::move(points), options);
+    }
+    // Slabs along x on leaf boundaries: every leaf falls wholly into one slab, so the result
+    // equals one big filter's. Each slab stays below PCL's leaf limit; there are at least as
+    // many as pieces of max_points_per_piece points, and each pass over the points collects a run
+    // of slabs holding about that many (as evenly as the points are spread along x).
+    const double yz = extent.y() * extent.z();
+    if (yz * 2.0 > static_cast<double>(kMaxLeavesPerPiece) || extent.x() > 1e15) {
+      return InvalidArgumentError("point cloud extent too large for a " +
+                                  std::to_string(options.leaf_size_m) + " m leaf");
+    }
+    const auto pieces_by_points = static_cast<int64_t>((finite + options.max_points_per_piece - 1) /
+                                                       options.max_points_per_piece);
+    const int64_t by_leaves =
+        std::max<int64_t>(1, static_cast<int64_t>(kMaxLeavesPerPiece / yz) - 2);
+    const int64_t by_points =
+        std::max<int64_t>(1, static_cast<int64_t>(extent.x()) / pieces_by_points);
+    const int64_t slab_leaves = std::min(by_leaves, by_points);
+    const int64_t first = LeafIndex(box.min().x(), inverse_leaf);
+    const int64_t slabs = (LeafIndex(box.max().x(), inverse_leaf) - first) / slab_leaves + 1;
+    const int64_t passes = std::clamp<int64_t>(pieces_by_points, 1, slabs);
+    const int64_t per_pass = (slabs + passes - 1) / passes;
+    for (int64_t begin = 0; begin < slabs; begin += per_pass) {
+      std::map<int64_t, PclCloud::Ptr> pieces;
+      for_each_world_point([&](const Eigen::Vector3f& p, const std::array<uint8_t, 3>& bgr) {
+        const int64_t slab = (LeafIndex(p.x(), inverse_leaf) - first) / slab_leaves;
+        if (slab < begin || slab >= begin + per_pass) return;
+        PclCloud::Ptr& piece = pieces[slab];
         if (!piece) {
           piece = std::make_shared<PclCloud>();
           piece->is_dense = true;
         }
-        piece->push_back(p);
-      }
-      world.reset();
-      for (auto& [slab, piece] : slabs) {
+        piece->push_back(to_pcl(p, bgr));
+      });
+      for (auto& [slab, piece] : pieces) {
         FilterPiece(piece, leaf, points);
         piece.reset();
       }

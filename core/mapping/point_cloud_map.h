@@ -34,8 +34,11 @@ namespace semmap {
 
 struct PointCloudMapOptions {
   double leaf_size_m = 0.02;  // voxel-grid leaf edge
+  // Build() filters at most this many world points at once (slabs along x beyond it), so a map
+  // of many keyframes is not held again as one PCL cloud of 32 bytes a point.
+  size_t max_points_per_piece = size_t{4} << 20;
 
-  // leaf size finite and in [1 mm, 1 m].
+  // leaf size finite and in [1 mm, 1 m]; at least 1000 points per piece.
   Status Validate() const;
 };
 

@@ -112,7 +112,7 @@ StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input,
     type.views.push_back(std::move(stored));
     entry.model.views.push_back(std::move(view).value());
   }
-  SEMMAP_RETURN_IF_ERROR(writer_->RunSync([&](MapStore& store) -> Status {
+  const Status stored_type = writer_->RunSync([&](MapStore& store) -> Status {
     if (!input.map.empty()) {
       SEMMAP_ASSIGN_OR_RETURN(MapInfo map, store.GetMap(input.map));
       type.map_id = map.id;
@@ -120,7 +120,8 @@ StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input,
     SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancelled));
     SEMMAP_ASSIGN_OR_RETURN(type, store.CreateObjectType(type));
     return OkStatus();
-  }));
+  });
+  SEMMAP_RETURN_IF_ERROR(stored_type);
   // The views just built are what the stored features decode to (lossless codec).
   entry.model.type_id = type.id;
   entry.map_id = type.map_id;
@@ -133,14 +134,15 @@ StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input,
 Status ObjectCatalog::Remove(const std::string& label, const std::string& map,
                              const CancelCheck& cancelled) {
   std::optional<int64_t> map_id;
-  SEMMAP_RETURN_IF_ERROR(writer_->RunSync([&](MapStore& store) -> Status {
+  const Status removed = writer_->RunSync([&](MapStore& store) -> Status {
     if (!map.empty()) {
       SEMMAP_ASSIGN_OR_RETURN(MapInfo info, store.GetMap(map));
       map_id = info.id;
     }
     SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancelled));
     return store.RemoveObjectType(label, map_id);
-  }));
+  });
+  SEMMAP_RETURN_IF_ERROR(removed);
   MutexLock lock(mutex_);
   for (auto it = entries_.begin(); it != entries_.end(); ++it) {
     if (it->second.model.label == label && it->second.map_id == map_id) {

@@ -167,7 +167,7 @@ void FrameIngestor::ApplyPendingCorrection() {
 
 Status FrameIngestor::Finish(MapSessionReport* report) {
   if (!map_) return OkStatus();
-  const Status finished = map_->FinishSession(session_.id, report);
+  Status finished = map_->FinishSession(session_.id, report);
   // The map is the manager's again: idle once no session holds it.
   backend_ = nullptr;
   map_.reset();

@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "common/logging.h"
+#include "common/memory_trim.h"
 #include "common/thread_launcher.h"
 
 namespace semmap {
@@ -160,10 +161,13 @@ void IngestManager::EvictIdleLocked(size_t keep_idle, size_t max_open) {
     });
     // Persists what it holds and joins its threads (under the lock: a session for this map
     // must not restore before the blobs are written).
-    LogInfo("map '{}': releasing its idle pipeline ({} maps open)",
-            oldest->second.pipeline->map_name(), pipelines_.size());
+    const std::string name = oldest->second.pipeline->map_name();
+    const size_t before = ResidentBytes();
     oldest->second.pipeline->Stop();
     pipelines_.erase(oldest);
+    ReleaseFreedMemory();  // what the map held (clouds, features, trees) leaves the process
+    LogInfo("map '{}': released its idle pipeline ({} maps open); resident memory {} -> {} MB",
+            name, pipelines_.size(), before >> 20, ResidentBytes() >> 20);
   }
 }
 

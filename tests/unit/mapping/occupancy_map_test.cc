@@ -197,6 +197,38 @@ TEST(OccupancyMapOptionsTest, Validate) {
   EXPECT_EQ(OccupancyMap::Build({}, o).status().code(), StatusCode::kInvalidArgument);
 }
 
+// What a map keeps per keyframe (semmapd's --map-keyframe-voxel): one mean point and colour per
+// cube in the keyframe's frame, far fewer points where the surface is near.
+TEST(KeyframeCloudTest, KeyframeVoxelKeepsOneMeanPointPerCube) {
+  const CameraCalibration camera = synth::DefaultSyntheticCamera();
+  cv::Mat depth(camera.height, camera.width, CV_16UC1, cv::Scalar(5000));  // 1 m
+  cv::Mat bgr(camera.height, camera.width, CV_8UC3, cv::Scalar(10, 20, 30));
+  bgr(cv::Rect(0, 0, camera.width / 2, camera.height)).setTo(cv::Scalar(20, 40, 60));
+  OccupancyMapOptions options;
+  StatusOr<KeyframeCloud> every = MakeKeyframeCloud({depth, 5000.0}, bgr, camera, options);
+  options.keyframe_voxel_m = 0.02;
+  StatusOr<KeyframeCloud> voxels = MakeKeyframeCloud({depth, 5000.0}, bgr, camera, options);
+  ASSERT_TRUE(every.ok() && voxels.ok());
+  // At 1 m the 4-pixel grid is about 8 mm: 4 to 9 points per 2 cm cube.
+  EXPECT_LT(voxels->size() * 3, every->size());
+  EXPECT_GT(voxels->size() * 12, every->size());
+  ASSERT_EQ(voxels->colours.size(), voxels->size());
+  for (size_t i = 0; i < voxels->size(); ++i) {
+    const Eigen::Vector3f& p = voxels->points[i];
+    EXPECT_FLOAT_EQ(p.z(), 1.0F);
+    // The mean of points in one cube lies in that cube.
+    EXPECT_LT(std::abs(p.x() - (std::floor(p.x() / 0.02F) + 0.5F) * 0.02F), 0.0101F);
+    const std::array<uint8_t, 3>& c = voxels->colours[i];
+    EXPECT_TRUE(c[0] >= 10 && c[0] <= 20 && c[1] >= 20 && c[1] <= 40) << int{c[0]};
+  }
+  options.keyframe_voxel_m = 0.5;  // coarser than the occupancy resolution
+  EXPECT_EQ(options.Validate().code(), StatusCode::kInvalidArgument);
+  options.keyframe_voxel_m = 0.0005;
+  EXPECT_EQ(options.Validate().code(), StatusCode::kInvalidArgument);
+  options.keyframe_voxel_m = 0;
+  EXPECT_TRUE(options.Validate().ok());
+}
+
 TEST(KeyframeCloudTest, SubsamplesBackProjectsAndDropsFarPoints) {
   const CameraCalibration camera = synth::DefaultSyntheticCamera();
   cv::Mat depth(camera.height, camera.width, CV_16UC1, cv::Scalar(10000));  // 2 m

@@ -176,6 +176,48 @@ TEST(PointCloudMapTest, OnePointPerLeafWithMeanPositionAndColour) {
   EXPECT_EQ(std::make_tuple(single->r, single->g, single->b), std::make_tuple(1, 2, 3));
 }
 
+// A map of more points than one piece holds is filtered slab by slab, never as one cloud; the
+// result is the one-piece filter's (every leaf falls wholly into one slab).
+TEST(PointCloudMapTest, ManyPointsAreFilteredInSlabsWithTheOnePieceResult) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> coordinate(-2.0f, 2.0f);
+  std::vector<KeyframeCloud> clouds(4);
+  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> placed;
+  for (size_t k = 0; k < clouds.size(); ++k) {
+    for (int i = 0; i < 3000; ++i) {
+      clouds[k].points.emplace_back(coordinate(rng), coordinate(rng), coordinate(rng));
+      clouds[k].colours.push_back({static_cast<uint8_t>(k * 40), 7, 9});
+    }
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation().x() = static_cast<double>(k);
+    placed.emplace_back(&clouds[k], T);
+  }
+  PointCloudMapOptions one_piece{0.1};
+  PointCloudMapOptions slabs{0.1};
+  slabs.max_points_per_piece = 1000;  // 12000 points: at least 12 slabs
+  StatusOr<PointCloudMap> whole = PointCloudMap::Build(placed, one_piece);
+  StatusOr<PointCloudMap> sliced = PointCloudMap::Build(placed, slabs);
+  ASSERT_TRUE(whole.ok() && sliced.ok());
+  ASSERT_GT(whole->size(), 1000u);
+  auto sorted = [](const PointCloudMap& map) {
+    std::vector<std::tuple<float, float, float, int, int, int>> out;
+    for (const CloudPoint& p : map.points()) out.emplace_back(p.x, p.y, p.z, p.r, p.g, p.b);
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  const auto a = sorted(*whole);
+  const auto b = sorted(*sliced);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_NEAR(std::get<0>(a[i]), std::get<0>(b[i]), 1e-5);
+    EXPECT_NEAR(std::get<1>(a[i]), std::get<1>(b[i]), 1e-5);
+    EXPECT_NEAR(std::get<2>(a[i]), std::get<2>(b[i]), 1e-5);
+    EXPECT_EQ(std::get<3>(a[i]), std::get<3>(b[i]));
+  }
+  slabs.max_points_per_piece = 10;
+  EXPECT_EQ(PointCloudMap::Build(placed, slabs).status().code(), StatusCode::kInvalidArgument);
+}
+
 TEST(PointCloudMapTest, TwoKeyframesSeeingTheSameSurfaceMerge) {
   const double leaf = 0.05;
   const std::vector<Eigen::Vector3d> floor = PlaneLeafCentres(20, 10, leaf, -leaf / 2);
