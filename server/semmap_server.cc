@@ -12,6 +12,7 @@
 #include <system_error>
 
 #include "common/logging.h"
+#include "core/odometry/mono_vo_model.h"
 #include "core/query/store_map_query.h"
 #include "core/slam/bow_vocabulary.h"
 #include "storage/sqlite/sqlite_map_store.h"
@@ -95,6 +96,23 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
                  loaded.status().ToString());
     }
   }
+  IngestOptions ingest = options.ingest;
+  if (!options.vo_model_path.empty()) {
+    StatusOr<std::shared_ptr<const MonoVoModel>> model = MonoVoModel::Load(options.vo_model_path);
+    if (model.ok()) {
+      ingest.mono_model = std::move(model).value();
+      LogInfo("MONO sessions: VO model {} (sha256 {}, input {}x{})", options.vo_model_path,
+              ingest.mono_model->info().sha256.substr(0, 12),
+              ingest.mono_model->info().camera.width, ingest.mono_model->info().camera.height);
+    } else if (!options.vo_model_optional) {
+      StopWriterAfterError(*server->writer_);
+      return model.status().WithContext("--vo-model " + options.vo_model_path);
+    } else {
+      ingest.mono_unavailable = "the VO model could not be loaded (" + model.status().ToString() +
+                                "); give semmapd a valid --vo-model";
+      LogWarning("MONO sessions unavailable: {}", ingest.mono_unavailable);
+    }
+  }
   StatusOr<std::unique_ptr<ObjectCatalog>> objects =
       ObjectCatalog::Load(server->writer_.get(), options.recognition);
   if (!objects.ok()) {
@@ -102,7 +120,6 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
     return objects.status().WithContext("loading the object database");
   }
   server->objects_ = std::move(objects).value();
-  IngestOptions ingest = options.ingest;
   // Map stages restore through read connections of their own (WAL: next to the writer).
   ingest.open_reader = SqliteMapStore::Opener(db_path, sqlite);
   server->ingest_ = std::make_unique<IngestManager>(server->writer_.get(), std::move(ingest),

@@ -69,6 +69,19 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
     options->vocabulary_path = vocabulary;
     options->vocabulary_optional = false;
   }
+  const std::string vo_model = args.Get("vo-model", "");
+  if (vo_model == "none") {
+    options->vo_model_path.clear();
+  } else if (!vo_model.empty()) {
+    options->vo_model_path = vo_model;
+    options->vo_model_optional = false;
+  }
+  const std::string mono_vo = args.Get("mono-vo", "hybrid");
+  if (mono_vo != "net" && mono_vo != "hybrid") {
+    return semmap::InvalidArgumentError("--mono-vo must be net or hybrid");
+  }
+  options->ingest.mono_method =
+      mono_vo == "net" ? semmap::MonoVoMethod::kNet : semmap::MonoVoMethod::kHybrid;
   SEMMAP_ASSIGN_OR_RETURN(options->ingest.slam.verifier.max_xi,
                           args.GetDouble("loop-max-xi", options->ingest.slam.verifier.max_xi));
   const std::string layers = args.Get("map-layers", "on");
@@ -137,6 +150,12 @@ int main(int argc, char** argv) {
   args.AddFlag("vocabulary", "FILE|none",
                "place-recognition vocabulary for loop closure (default: the bundled "
                "models/orb_vocab.bin; none: loops by pose proximity only)");
+  args.AddFlag("vo-model", "FILE|none",
+               "learned VO network for MONO sessions, with its .json sidecar next to it "
+               "(default: the bundled models/vo/semmap_vo.onnx; none: MONO sessions are refused)");
+  args.AddFlag("mono-vo", "net|hybrid",
+               "how MONO sessions are tracked: the network's motion alone, or feature tracking "
+               "on the network's depth (default hybrid)");
   args.AddFlag("loop-max-xi", "X",
                "reject a loop whose candidate matches more than X times better than its "
                "neighbouring keyframes (default 1.25)");
@@ -162,6 +181,9 @@ int main(int argc, char** argv) {
   // The vocabulary that comes with the source tree; a missing file is a warning, not an error.
   options.vocabulary_path = SEMMAP_DEFAULT_VOCABULARY;
   options.vocabulary_optional = true;
+  // Likewise the VO model: without it (or with a damaged one) only MONO sessions are refused.
+  options.vo_model_path = SEMMAP_DEFAULT_VO_MODEL;
+  options.vo_model_optional = true;
   semmap::Status parsed = args.Parse(argc, argv);
   if (parsed.ok() && args.Has("help")) {
     std::cout << kUsage << args.Usage();

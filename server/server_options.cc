@@ -40,6 +40,8 @@ std::string ServerOptions::ToString() const {
       << " keyframe_min_motion=" << ingest.keyframes.min_motion
       << " keyframe_rotation_weight=" << ingest.keyframes.rotation_weight
       << " vocabulary=" << (vocabulary_path.empty() ? "none" : vocabulary_path)
+      << " vo_model=" << (vo_model_path.empty() ? "none" : vo_model_path)
+      << " mono_vo=" << (ingest.mono_method == MonoVoMethod::kNet ? "net" : "hybrid")
       << " loop_max_xi=" << ingest.slam.verifier.max_xi
       << " map_layers=" << (ingest.layers.enabled ? "on" : "off")
       << " map_resolution=" << ingest.layers.occupancy.resolution_m

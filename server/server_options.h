@@ -27,6 +27,11 @@ struct ServerOptions {
   // only). A path that cannot be loaded fails the start unless vocabulary_optional.
   std::string vocabulary_path;
   bool vocabulary_optional = false;
+  // The learned VO network MONO sessions run (its JSON sidecar next to it). Empty: none (MONO
+  // sessions are refused with FAILED_PRECONDITION). A model that cannot be loaded fails the
+  // start unless vo_model_optional: then MONO is refused saying why and the rest serves.
+  std::string vo_model_path;
+  bool vo_model_optional = false;
   // How object photos are described and objects recognised in keyframes.
   ObjectRecognitionOptions recognition;
 

@@ -13,6 +13,7 @@ enum class KeyframeEvidence {
   kTracked,       // tracked against the current reference keyframe / local map
   kRelocalised,   // placed against an older keyframe after the reference failed
   kKnownPose,     // the client gave the pose (KNOWN_POSES)
+  kPredicted,     // the learned VO network's motion (MONO): the motion norm alone decides
 };
 
 struct KeyframeCandidate {

@@ -79,6 +79,11 @@ StatusOr<FrameIngestor::Ingested> FrameIngestor::Ingest(const DecodedFrame& fram
   if (frame.depth) {
     SEMMAP_ASSIGN_OR_RETURN(kf.depth, EncodeDepthForStorage(*wire.depth, *frame.depth));
     kf.depth_scale = frame.depth->depth_scale;
+  } else if (estimate.predicted_depth) {
+    // MONO: the network's depth, so restarts and rebuilds see what the live map did.
+    SEMMAP_ASSIGN_OR_RETURN(kf.depth,
+                            EncodeDepthForStorage(DepthMessage{}, *estimate.predicted_depth));
+    kf.depth_scale = estimate.predicted_depth->depth_scale;
   }
   if (estimate.keyframe_features) {
     kf.features_format = std::string(kFeatureCodecFormat);
@@ -146,7 +151,7 @@ Status FrameIngestor::PublishKeyframe(const DecodedFrame& frame, const FrameEsti
   keyframe.stamp_ns = frame.stamp_ns;
   keyframe.camera = session_.camera;
   keyframe.colour = frame.colour;
-  keyframe.depth = frame.depth;
+  keyframe.depth = frame.depth ? frame.depth : estimate.predicted_depth;
   keyframe.features = estimate.keyframe_features;
   // Visual sessions' keyframes are placed by the back end (in its corrected frame); the others'
   // poses are final as they are.

@@ -2,6 +2,7 @@
 
 #include <string>
 
+#include "core/pipeline/mono_processor.h"
 #include "core/pipeline/rgbd_processor.h"
 
 namespace semmap {
@@ -23,18 +24,26 @@ StatusOr<FrameEstimate> KnownPosesProcessor::Process(const DecodedFrame& frame) 
 
 StatusOr<std::unique_ptr<FrameProcessor>> MakeFrameProcessor(SessionMode mode,
                                                              const KeyframePolicyOptions& kf,
-                                                             const RgbdTrackerOptions& tracker,
+                                                             const FrameProcessorContext& context,
                                                              const CameraCalibration& camera) {
   switch (mode) {
     case SessionMode::kKnownPoses:
       return std::unique_ptr<FrameProcessor>(std::make_unique<KnownPosesProcessor>(kf));
     case SessionMode::kRgbd: {
       SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<RgbdProcessor> processor,
-                              RgbdProcessor::Create(tracker, kf, camera));
+                              RgbdProcessor::Create(context.tracker, kf, camera));
       return std::unique_ptr<FrameProcessor>(std::move(processor));
     }
-    case SessionMode::kMono:
-      return UnimplementedError("MONO sessions (learned visual odometry) are not implemented yet");
+    case SessionMode::kMono: {
+      if (context.mono_model == nullptr) {
+        return FailedPreconditionError("MONO sessions are not available: " +
+                                       context.mono_unavailable);
+      }
+      SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<MonoProcessor> processor,
+                              MonoProcessor::Create(context.mono_model, context.mono_method, kf,
+                                                    context.tracker, camera));
+      return std::unique_ptr<FrameProcessor>(std::move(processor));
+    }
   }
   return InvalidArgumentError("unknown session mode");
 }

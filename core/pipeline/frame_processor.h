@@ -5,9 +5,11 @@
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <optional>
+#include <string>
 
 #include "common/map_types.h"
 #include "common/status.h"
+#include "core/odometry/mono_vo_model.h"
 #include "core/odometry/rgbd_tracker.h"
 #include "core/sensor/frame_features.h"
 #include "core/sensor/image_decoding.h"
@@ -34,6 +36,9 @@ struct FrameEstimate {
   // new keyframe's features (for loop closure and storage) when is_keyframe.
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
   std::shared_ptr<const FrameFeatures> keyframe_features;
+  // MONO: the network's depth of the frame in the camera's pixels, stored with keyframes and
+  // given to the map's consumers as a sensor's would be.
+  std::optional<DecodedDepth> predicted_depth;
 };
 
 class FrameProcessor {
@@ -54,12 +59,25 @@ class KnownPosesProcessor final : public FrameProcessor {
   KeyframePolicy keyframes_;
 };
 
-// UNIMPLEMENTED for modes this server cannot run yet (never a faked pose). Every mode decides
-// keyframes with a KeyframePolicy of `kf`; `tracker` configures RGBD sessions (its camera is
-// replaced by `camera`).
+// How MONO sessions are tracked: the learned VO network's motion alone (net), or feature
+// tracking against the network's depth, so that the network sets the scale (hybrid).
+enum class MonoVoMethod { kNet, kHybrid };
+
+// What MakeFrameProcessor needs beyond the session's start message.
+struct FrameProcessorContext {
+  // RGBD sessions' front end (its camera is replaced by the session's); MONO hybrid too.
+  RgbdTrackerOptions tracker;
+  // The VO network MONO sessions run (null: MONO is refused with FAILED_PRECONDITION saying
+  // why, `mono_unavailable`).
+  std::shared_ptr<const MonoVoModel> mono_model;
+  std::string mono_unavailable = "semmapd was started without a VO model (--vo-model)";
+  MonoVoMethod mono_method = MonoVoMethod::kHybrid;
+};
+
+// Every mode decides keyframes with a KeyframePolicy of `kf`.
 StatusOr<std::unique_ptr<FrameProcessor>> MakeFrameProcessor(SessionMode mode,
                                                              const KeyframePolicyOptions& kf,
-                                                             const RgbdTrackerOptions& tracker,
+                                                             const FrameProcessorContext& context,
                                                              const CameraCalibration& camera);
 
 }  // namespace semmap

@@ -7,6 +7,7 @@
 #include "core/mapping/map_layer_builder.h"
 #include "core/objects/object_mapper.h"
 #include "core/odometry/rgbd_tracker.h"
+#include "core/pipeline/frame_processor.h"
 #include "core/slam/keyframe_policy.h"
 #include "core/slam/slam_backend.h"
 #include "storage/map_store_opener.h"
@@ -37,8 +38,14 @@ struct IngestOptions {
   // read through the storage writer, which waits meanwhile.
   MapStoreOpener open_reader;
   KeyframePolicyOptions keyframes;
-  // RGBD sessions' front end (its camera and keyframe options come from the session).
+  // RGBD sessions' front end (its camera and keyframe options come from the session); MONO
+  // hybrid sessions' too.
   RgbdTrackerOptions tracker;
+  // MONO sessions: the learned VO network (null: MONO is refused with FAILED_PRECONDITION,
+  // saying `mono_unavailable`) and how its sessions are tracked.
+  std::shared_ptr<const MonoVoModel> mono_model;
+  std::string mono_unavailable = "semmapd was started without a VO model (--vo-model)";
+  MonoVoMethod mono_method = MonoVoMethod::kHybrid;
   // The per-map back end of RGBD sessions (loop closure, pose graph).
   SlamBackendOptions slam;
   // The per-map 3D layers (occupancy, coloured cloud) built from keyframes with depth.

@@ -212,12 +212,13 @@ Status IngestSession::HandleStart(const IngestStartRequest& start) {
                           ValidateStart(start, options_.keyframes));
   SEMMAP_ASSIGN_OR_RETURN(
       std::unique_ptr<FrameProcessor> processor,
-      MakeFrameProcessor(*start.mode, keyframes, options_.tracker, start.camera));
+      MakeFrameProcessor(*start.mode, keyframes, ProcessorContext(), start.camera));
   SEMMAP_ASSIGN_OR_RETURN(SessionInfo created, CreateSessionRow(*writer_, start));
   row_ = created;  // ended by Finish whatever happens next
   // Visible to administrative removals before the map's pipelines are taken (ingest_manager).
   map_id_.store(created.map_id);
-  const bool visual = *start.mode == SessionMode::kRgbd;
+  // RGBD and MONO keyframes carry features: the map's SLAM back end closes loops with them.
+  const bool visual = *start.mode == SessionMode::kRgbd || *start.mode == SessionMode::kMono;
   std::shared_ptr<MapPipeline> map;
   if (pipelines_) {
     SEMMAP_ASSIGN_OR_RETURN(map, pipelines_(created, visual));
@@ -226,6 +227,15 @@ Status IngestSession::HandleStart(const IngestStartRequest& start) {
       std::make_unique<FrameIngestor>(created, std::move(processor), std::move(map), visual);
   sink_->OnStarted(ingestor_->session());
   return OkStatus();
+}
+
+FrameProcessorContext IngestSession::ProcessorContext() const {
+  FrameProcessorContext context;
+  context.tracker = options_.tracker;
+  context.mono_model = options_.mono_model;
+  context.mono_unavailable = options_.mono_unavailable;
+  context.mono_method = options_.mono_method;
+  return context;
 }
 
 StatusOr<IngestSession::DecodedImages> IngestSession::DecodeImages(const IngestFrame& frame,

@@ -88,6 +88,7 @@ class IngestSession {
   static StatusOr<DecodedImages> DecodeImages(const IngestFrame& frame, int width, int height);
   Status Handle(StagedMessage& staged);
   Status HandleStart(const IngestStartRequest& start);
+  FrameProcessorContext ProcessorContext() const;
   Status HandleFrame(IngestFrame& frame, std::optional<StatusOr<DecodedImages>>& images);
   Status Submit(WriteBatch batch, uint64_t seq);
   void OnCommitted(const Status& status, uint64_t seq, double latency_ms);

@@ -46,6 +46,7 @@ bool KeyframePolicy::Decide(const KeyframeCandidate& candidate) {
       keyframe = true;
       break;
     case KeyframeEvidence::kKnownPose:
+    case KeyframeEvidence::kPredicted:
       keyframe = MovedFarEnough(candidate.T_world_camera);
       break;
     case KeyframeEvidence::kRelocalised:

@@ -3,7 +3,8 @@
 //  - a visual frame without depth of its own never is (it has no 3D points to add);
 //  - a relocalised frame is (tracking goes on from there, not from the reference that failed);
 //  - otherwise a frame becomes a keyframe when the norm of its motion since the last keyframe
-//    exceeds min_motion (rotation counted at rotation_weight metres per radian), or, when
+//    exceeds min_motion (rotation counted at rotation_weight metres per radian) -- for known
+//    poses and the learned VO's predicted motion (MONO) that alone decides -- or, when
 //    tracked visually, when its inliers fall below min_inlier_fraction of those of the first
 //    frame tracked against the current reference (the view is leaving the reference).
 // Front ends ask through KeyframeDecider (core/odometry/keyframe_decider.h).

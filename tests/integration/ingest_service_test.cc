@@ -121,10 +121,14 @@ TEST_F(IngestServiceTest, DuplicateSessionIsAlreadyExists) {
   EXPECT_EQ(Stream(KnownPosesStart("lab", "a"), 1).code(), StatusCode::kAlreadyExists);
 }
 
-TEST_F(IngestServiceTest, UnimplementedModesAreRefused) {
+// A server without the VO model (this one has none) refuses MONO sessions saying why; RGBD and
+// KNOWN_POSES keep working (the other tests).
+TEST_F(IngestServiceTest, MonoWithoutAModelIsFailedPreconditionAndUnspecifiedIsInvalid) {
   v1::IngestStart start = KnownPosesStart("lab", "x");
   start.set_mode(v1::SESSION_MODE_MONO);
-  EXPECT_EQ(Stream(start, 1).code(), StatusCode::kUnimplemented);
+  const Status mono = Stream(start, 1);
+  EXPECT_EQ(mono.code(), StatusCode::kFailedPrecondition) << mono.ToString();
+  EXPECT_NE(mono.message().find("--vo-model"), std::string::npos) << mono.message();
   start.set_mode(v1::SESSION_MODE_UNSPECIFIED);
   EXPECT_EQ(Stream(start, 1).code(), StatusCode::kInvalidArgument);
 }

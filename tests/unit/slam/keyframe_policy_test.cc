@@ -124,5 +124,21 @@ TEST(KeyframePolicyTest, CorrectionsMoveTheReferenceWithTheMap) {
   EXPECT_TRUE(policy.Decide(Known(Pose(1.11, 0))));
 }
 
+// MONO: the learned VO's predicted motion is judged by the motion norm alone (no inliers, and
+// predicted depth means every frame has depth).
+TEST(KeyframePolicyTest, PredictedMotionIsJudgedByTheMotionNormAlone) {
+  KeyframePolicy policy(Options(0.1, 0.5));
+  ASSERT_TRUE(policy.Decide(Start(Pose(0, 0))));
+  KeyframeCandidate c;
+  c.evidence = KeyframeEvidence::kPredicted;
+  c.num_inliers = 0;
+  c.T_world_camera = Pose(0.05, 0);
+  EXPECT_FALSE(policy.Decide(c));
+  c.T_world_camera = Pose(0.0, 0.25);  // 0.125 m-equivalent of turning
+  EXPECT_TRUE(policy.Decide(c));
+  c.T_world_camera = Pose(0.08, 0.25);
+  EXPECT_FALSE(policy.Decide(c));  // measured from the new keyframe
+}
+
 }  // namespace
 }  // namespace semmap
