@@ -60,6 +60,7 @@ Status ApplyKey(std::string_view key, std::string_view value, const std::string&
   if (key == "cx") target = &c.cx;
   if (key == "cy") target = &c.cy;
   if (key == "depth_scale") target = &out->depth_scale;
+  if (key == "fps") target = &out->fps;
   if (target == nullptr) return LineError(path, line, "unknown key '" + std::string(key) + "'");
   if (!ParseDouble(value, target)) {
     return LineError(path, line,
@@ -104,6 +105,11 @@ StatusOr<CameraYaml> ParseCameraYaml(std::string_view content, const std::string
   if (!std::isfinite(out.depth_scale) || out.depth_scale < 0) {
     return InvalidArgumentError(path + ": depth_scale must be >= 0 (0 = no depth), got " +
                                 std::to_string(out.depth_scale));
+  }
+  if (seen.count(std::string_view("fps")) != 0 &&
+      !(std::isfinite(out.fps) && out.fps > 0 && out.fps <= 10000)) {
+    return InvalidArgumentError(path + ": fps must be in (0, 10000], got " +
+                                std::to_string(out.fps));
   }
   if (Status valid = ValidateCalibration(out.camera); !valid.ok()) {
     return valid.WithContext(path);

@@ -18,11 +18,13 @@ namespace semmap {
 struct CameraYaml {
   CameraCalibration camera;
   double depth_scale = 0;  // raw depth units per metre; 0 = the camera has no depth
+  double fps = 0;          // frame rate of a plain image folder's frames; 0 = not given
 };
 
 // Required keys: width height fx fy cx cy. Optional: depth_scale (default 0, must be >= 0),
-// distortion (4 or 5 values, default zeros). Errors name the file and line; the result
-// passes ValidateCalibration. NOT_FOUND when the file does not exist.
+// distortion (4 or 5 values, default zeros), fps (frames per second of an image folder, > 0).
+// Errors name the file and line; the result passes ValidateCalibration. NOT_FOUND when the file
+// does not exist.
 StatusOr<CameraYaml> ReadCameraYaml(const std::string& path);
 // ReadCameraYaml on a file's content; errors name `path` (a file name or any label).
 StatusOr<CameraYaml> ParseCameraYaml(std::string_view content, const std::string& path);

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <system_error>
 
+#include "client/datasets/image_folder_dataset.h"
 #include "client/datasets/kitti_dataset.h"
 #include "client/datasets/tum_dataset.h"
 
@@ -17,9 +18,11 @@ StatusOr<Dataset> OpenDataset(const std::string& dir) {
       fs::exists(fs::path(dir) / "times.txt", ec)) {
     return OpenKittiDataset(dir);
   }
+  if (fs::exists(fs::path(dir) / "camera.yaml", ec)) return OpenImageFolderDataset(dir);
   return InvalidArgumentError(dir +
-                              ": not a dataset: expected rgb.txt (TUM RGB-D layout) or image_0/ "
-                              "and times.txt (KITTI odometry layout)");
+                              ": not a dataset: expected rgb.txt (TUM RGB-D layout), image_0/ "
+                              "and times.txt (KITTI odometry layout), or images next to a "
+                              "camera.yaml (an image folder)");
 }
 
 }  // namespace semmap

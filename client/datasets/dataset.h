@@ -21,7 +21,7 @@ struct DatasetFrame {
 };
 
 struct Dataset {
-  std::string kind;  // "tum" or "kitti"
+  std::string kind;  // "tum", "kitti" or "images"
   std::string dir;
   CameraCalibration camera;
   double depth_scale = 0;  // raw depth units per metre; 0 when the dataset has no depth
@@ -30,9 +30,10 @@ struct Dataset {
   std::vector<StampedPose> ground_truth;  // camera-to-world, sorted by stamp; empty when none
 };
 
-// Opens a dataset directory, recognising its layout: TUM RGB-D (rgb.txt) or KITTI odometry
-// (image_0/ and times.txt). Every listed image is checked to exist (NOT_FOUND naming it), so
-// a broken dataset fails here rather than halfway through a stream.
+// Opens a dataset directory, recognising its layout: TUM RGB-D (rgb.txt), KITTI odometry
+// (image_0/ and times.txt), or a plain image folder with a camera.yaml (image_folder_dataset.h).
+// Every listed image is checked to exist (NOT_FOUND naming it), so a broken dataset fails here
+// rather than halfway through a stream.
 StatusOr<Dataset> OpenDataset(const std::string& dir);
 
 }  // namespace semmap
