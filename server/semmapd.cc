@@ -73,8 +73,7 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   if (vo_model == "none") {
     options->vo_model_path.clear();
   } else if (!vo_model.empty()) {
-    options->vo_model_path = vo_model;
-    options->vo_model_optional = false;
+    options->vo_model_path = vo_model;  // still optional: a bad model refuses MONO, not the start
   }
   const std::string mono_vo = args.Get("mono-vo", "hybrid");
   if (mono_vo != "net" && mono_vo != "hybrid") {
