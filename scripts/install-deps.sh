@@ -2,6 +2,8 @@
 # Installs every Debian 12 package semmap needs to build, test and run.
 # Idempotent: when everything is present it only runs dpkg-query and exits.
 # `install-deps.sh fuzz` adds clang and libFuzzer for scripts/fuzz.sh (make fuzz).
+# `install-deps.sh train` adds PyTorch (CPU), OpenCV for Python, pytest and matplotlib for training/
+# (make train-vo, make train-smoke).
 set -euo pipefail
 
 PACKAGES=(
@@ -26,7 +28,8 @@ for extra in "$@"; do
   case "$extra" in
     fuzz) PACKAGES+=(clang libclang-rt-14-dev) ;;  # libFuzzer, ASan/UBSan/TSan runtimes
     lint) PACKAGES+=(clang-tidy) ;;
-    *) echo "install-deps: unknown package set '$extra' (known: fuzz, lint)" >&2; exit 2 ;;
+    train) PACKAGES+=(python3-torch python3-numpy python3-opencv python3-pytest python3-matplotlib) ;;  # training/ (learned VO)
+    *) echo "install-deps: unknown package set '$extra' (known: fuzz, lint, train)" >&2; exit 2 ;;
   esac
 done
 

@@ -9,6 +9,7 @@
 #include "common/arg_parser.h"
 #include "common/logging.h"
 #include "common/memory_trim.h"
+#include "core/odometry/mono_vo_model.h"
 #include "server/semmap_server.h"
 
 namespace {
@@ -117,6 +118,20 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   return options->Validate();
 }
 
+// --check-vo-model: what an operator (or CI, after training) runs before deploying a model.
+int CheckVoModel(const std::string& path) {
+  const auto model = semmap::MonoVoModel::Load(path);
+  if (!model.ok()) {
+    std::cerr << "semmapd: VO model not usable: " << model.status().ToString() << "\n";
+    return 1;
+  }
+  const semmap::MonoVoModelInfo& info = (*model)->info();
+  std::cout << "semmapd: VO model " << path << " OK: input " << info.camera.width << "x"
+            << info.camera.height << " f=" << info.camera.f << ", " << info.state.size()
+            << " recurrent inputs, sha256 " << info.sha256 << std::endl;
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -174,6 +189,9 @@ int main(int argc, char** argv) {
   args.AddFlag("object-min-inliers", "N",
                "geometric-verification inliers an object detection needs (default 12)");
   args.AddFlag("shutdown-grace-s", "S", "seconds streams get to finish at shutdown (default 5)");
+  args.AddFlag("check-vo-model", "FILE",
+               "load a VO model as MONO sessions would (sidecar, sha256, OpenCV import, two "
+               "steps), print what it is and exit: 0 usable, 1 not");
   args.AddSwitch("help", "print this help");
 
   semmap::ServerOptions options;
@@ -188,6 +206,8 @@ int main(int argc, char** argv) {
     std::cout << kUsage << args.Usage();
     return 0;
   }
+  if (parsed.ok() && args.Has("check-vo-model"))
+    return CheckVoModel(args.Get("check-vo-model", ""));
   if (parsed.ok() && !args.positional().empty()) {
     parsed = semmap::InvalidArgumentError("unexpected argument '" + args.positional()[0] + "'");
   }

@@ -8,10 +8,14 @@
 namespace semmap {
 namespace {
 
-const std::vector<cv::String> kOutputs = {"pose6", "depth", "h_out", "c_out", "f2", "f3"};
-
 cv::Mat Zeros(const std::vector<int>& shape) {
   return cv::Mat(static_cast<int>(shape.size()), shape.data(), CV_32F, cv::Scalar(0));
+}
+
+size_t Elements(const std::vector<int>& shape) {
+  size_t n = 1;
+  for (const int size : shape) n *= static_cast<size_t>(size);
+  return n;
 }
 
 bool HasShape(const cv::Mat& m, const std::vector<int>& shape) {
@@ -24,16 +28,13 @@ bool HasShape(const cv::Mat& m, const std::vector<int>& shape) {
 
 }  // namespace
 
-MonoVoRunner::MonoVoRunner(cv::dnn::Net net, MonoVoModelInfo info)
-    : net_(std::move(net)), info_(std::move(info)) {}
-
-void MonoVoRunner::Reset() {
-  prev_image_.release();
-  prev_f2_.release();
-  prev_f3_.release();
-  h_.release();
-  c_.release();
+MonoVoRunner::MonoVoRunner(const cv::dnn::Net& net, MonoVoModelInfo info)
+    : net_(net), info_(std::move(info)) {
+  output_names_ = {"pose6", "depth"};
+  for (const MonoVoState& s : info_.state) output_names_.emplace_back(s.output);
 }
+
+void MonoVoRunner::Reset() { state_.clear(); }
 
 cv::Mat MonoVoRunner::Blob(const cv::Mat& canonical_bgr) const {
   // NCHW float, R, G, B planes: x = (rgb / 255 - mean) / std.
@@ -58,32 +59,26 @@ StatusOr<MonoVoStep> MonoVoRunner::Step(const cv::Mat& canonical_bgr) {
       canonical_bgr.rows != info_.camera.height) {
     return InvalidArgumentError("VO step input must be BGR8 of the network's input size");
   }
-  const bool first = prev_image_.empty();
-  cv::Mat image = Blob(canonical_bgr);
-  const std::vector<int> image_shape = {1, 3, info_.camera.height, info_.camera.width};
-  const std::vector<int> state_shape = {1, info_.hidden};
+  const bool first = state_.empty();
   std::vector<cv::Mat> outputs;
   try {
-    net_.setInput(image, "image");
-    net_.setInput(first ? Zeros(image_shape) : prev_image_, "prev_image");
-    net_.setInput(first ? Zeros(info_.f2_shape) : prev_f2_, "prev_f2");
-    net_.setInput(first ? Zeros(info_.f3_shape) : prev_f3_, "prev_f3");
-    net_.setInput(first ? Zeros(state_shape) : h_, "h");
-    net_.setInput(first ? Zeros(state_shape) : c_, "c");
-    net_.forward(outputs, kOutputs);
+    net_.setInput(Blob(canonical_bgr), "image");
+    for (size_t i = 0; i < info_.state.size(); ++i) {
+      net_.setInput(first ? Zeros(info_.state[i].shape) : state_[i], info_.state[i].input);
+    }
+    net_.forward(outputs, output_names_);
   } catch (const cv::Exception& e) {
     return InternalError("VO network step failed: " + e.msg);
   } catch (const std::bad_alloc&) {
     return ResourceExhaustedError("out of memory in the VO network step");
   }
   const std::vector<int> depth_shape = {1, 1, info_.camera.height, info_.camera.width};
-  if (outputs.size() != kOutputs.size() || outputs[0].total() != 6 ||
-      !HasShape(outputs[1], depth_shape) ||
-      outputs[2].total() != static_cast<size_t>(info_.hidden) ||
-      outputs[3].total() != static_cast<size_t>(info_.hidden) ||
-      !HasShape(outputs[4], info_.f2_shape) || !HasShape(outputs[5], info_.f3_shape)) {
-    return InternalError("VO network outputs do not have the sidecar's shapes");
+  bool shapes_ok = outputs.size() == output_names_.size() && outputs[0].total() == 6 &&
+                   HasShape(outputs[1], depth_shape);
+  for (size_t i = 0; shapes_ok && i < info_.state.size(); ++i) {
+    shapes_ok = outputs[2 + i].total() == Elements(info_.state[i].shape);
   }
+  if (!shapes_ok) return InternalError("VO network outputs do not have the sidecar's shapes");
   MonoVoStep step;
   step.depth =
       cv::Mat(info_.camera.height, info_.camera.width, CV_32F, outputs[1].ptr<float>()).clone();
@@ -93,16 +88,12 @@ StatusOr<MonoVoStep> MonoVoRunner::Step(const cv::Mat& canonical_bgr) {
     std::copy(p, p + 6, pose6.begin());
     SEMMAP_ASSIGN_OR_RETURN(step.T_prev_cur, PoseFromPose6(pose6));
   }
-  // The protocol of training/semmap_vo/export.py: after the first frame h and c stay zero.
-  prev_image_ = image;
-  prev_f2_ = outputs[4].clone();
-  prev_f3_ = outputs[5].clone();
-  if (first) {
-    h_ = Zeros(state_shape);
-    c_ = Zeros(state_shape);
-  } else {
-    h_ = outputs[2].reshape(1, state_shape).clone();
-    c_ = outputs[3].reshape(1, state_shape).clone();
+  // The sidecar's protocol: a first frame's LSTM state is thrown away (zeros carried instead).
+  state_.resize(info_.state.size());
+  for (size_t i = 0; i < info_.state.size(); ++i) {
+    const MonoVoState& s = info_.state[i];
+    state_[i] =
+        first && s.discard_first ? Zeros(s.shape) : outputs[2 + i].reshape(1, s.shape).clone();
   }
   return step;
 }

@@ -1,12 +1,14 @@
-// One MONO session's learned VO: the network's recurrent state (previous frame, its features,
-// the LSTM's h and c) carried from frame to frame, reset at a session's start and after a
-// tracking loss. Each step gives the motion since the previous frame and the frame's depth.
+// One MONO session's learned VO: the network's recurrent state (the previous frame's features,
+// the LSTM's h and c: whatever the sidecar's state list names) carried from frame to frame, reset
+// at a session's start and after a tracking loss. Each step gives the motion since the previous
+// frame and the frame's depth.
 #pragma once
 
 #include <Eigen/Geometry>
 #include <opencv2/core/mat.hpp>
 #include <opencv2/dnn.hpp>
 #include <optional>
+#include <vector>
 
 #include "common/status.h"
 #include "core/odometry/mono_vo_model.h"
@@ -21,7 +23,7 @@ struct MonoVoStep {
 
 class MonoVoRunner {
  public:
-  MonoVoRunner(cv::dnn::Net net, MonoVoModelInfo info);
+  MonoVoRunner(const cv::dnn::Net& net, MonoVoModelInfo info);
   MonoVoRunner(const MonoVoRunner&) = delete;
   MonoVoRunner& operator=(const MonoVoRunner&) = delete;
 
@@ -30,14 +32,15 @@ class MonoVoRunner {
   StatusOr<MonoVoStep> Step(const cv::Mat& canonical_bgr);
   // The next frame starts a new sequence (as the first of a session).
   void Reset();
-  bool has_state() const { return !prev_image_.empty(); }
+  bool has_state() const { return !state_.empty(); }
 
  private:
   cv::Mat Blob(const cv::Mat& canonical_bgr) const;
 
   cv::dnn::Net net_;
   MonoVoModelInfo info_;
-  cv::Mat prev_image_, prev_f2_, prev_f3_, h_, c_;  // empty after Reset
+  std::vector<cv::String> output_names_;  // pose6, depth, then the state's outputs
+  std::vector<cv::Mat> state_;            // one per info_.state entry; empty after Reset
 };
 
 }  // namespace semmap

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/dnn.hpp>
+#include <set>
 #include <sstream>
 #include <utility>
 
@@ -75,6 +76,56 @@ StatusOr<std::vector<int>> Shape(const Json& root, std::initializer_list<const c
   return shape;
 }
 
+// The sidecar's "state": [{"input", "output", "first_frame": "keep" | "discard"}], each input's
+// shape under "inputs".
+StatusOr<std::vector<MonoVoState>> StateList(const Json& root) {
+  constexpr size_t kMaxState = 16;
+  const Json* list = At(root, {"state"});
+  if (list == nullptr || !list->is_array() || list->empty() || list->size() > kMaxState) {
+    return InvalidArgumentError("VO model sidecar: state must list 1 to 16 recurrent inputs");
+  }
+  std::vector<MonoVoState> state;
+  std::set<std::string> names = {"image", "pose6", "depth"};
+  for (const Json& entry : *list) {
+    const Json* input = At(entry, {"input"});
+    const Json* output = At(entry, {"output"});
+    if (input == nullptr || output == nullptr || !input->is_string() || !output->is_string() ||
+        input->get<std::string>().empty() || output->get<std::string>().empty() ||
+        input->get<std::string>().size() > 64 || output->get<std::string>().size() > 64) {
+      return InvalidArgumentError(
+          "VO model sidecar: each state entry needs an input and an output name");
+    }
+    MonoVoState s;
+    s.input = input->get<std::string>();
+    s.output = output->get<std::string>();
+    if (!names.insert(s.input).second || !names.insert(s.output).second) {
+      return InvalidArgumentError("VO model sidecar: state name \"" + s.input + "\" or \"" +
+                                  s.output + "\" is used twice");
+    }
+    const Json* first = At(entry, {"first_frame"});
+    if (first != nullptr) {
+      if (!first->is_string() ||
+          (first->get<std::string>() != "keep" && first->get<std::string>() != "discard")) {
+        return InvalidArgumentError(
+            R"(VO model sidecar: state first_frame must be "keep" or "discard")");
+      }
+      s.discard_first = first->get<std::string>() == "discard";
+    }
+    const Json* shape = At(root, {"inputs"});
+    if (shape == nullptr || !shape->is_object() || !shape->contains(s.input)) {
+      return InvalidArgumentError("VO model sidecar: inputs." + s.input + " is missing");
+    }
+    const size_t dims = (*shape)[s.input].is_array() ? (*shape)[s.input].size() : 0;
+    if (dims < 2 || dims > 4) {
+      return InvalidArgumentError("VO model sidecar: inputs." + s.input +
+                                  " must be a shape of 2 to 4 sizes");
+    }
+    SEMMAP_ASSIGN_OR_RETURN(s.shape, Shape(root, {"inputs", s.input.c_str()}, dims));
+    state.push_back(std::move(s));
+  }
+  return state;
+}
+
 StatusOr<std::array<double, 3>> Triple(const Json& root, std::initializer_list<const char*> path) {
   const Json* node = At(root, path);
   if (node == nullptr || !node->is_array() || node->size() != 3) {
@@ -138,12 +189,7 @@ StatusOr<MonoVoModelInfo> ParseMonoVoSidecar(std::string_view text) {
   if (image[1] != 3 || image[2] != info.camera.height || image[3] != info.camera.width) {
     return InvalidArgumentError("VO model sidecar: inputs.image must be 1x3 at the input size");
   }
-  SEMMAP_ASSIGN_OR_RETURN(info.f2_shape, Shape(root, {"inputs", "prev_f2"}, 4));
-  SEMMAP_ASSIGN_OR_RETURN(info.f3_shape, Shape(root, {"inputs", "prev_f3"}, 4));
-  SEMMAP_ASSIGN_OR_RETURN(const std::vector<int> h, Shape(root, {"inputs", "h"}, 2));
-  SEMMAP_ASSIGN_OR_RETURN(const std::vector<int> c, Shape(root, {"inputs", "c"}, 2));
-  if (h != c) return InvalidArgumentError("VO model sidecar: inputs.h and inputs.c differ");
-  info.hidden = h[1];
+  SEMMAP_ASSIGN_OR_RETURN(info.state, StateList(root));
   const Json* sha = At(root, {"sha256"});
   if (sha == nullptr || !sha->is_string() || sha->get<std::string>().size() != 64) {
     return InvalidArgumentError("VO model sidecar: sha256 must be 64 hex digits");
@@ -203,7 +249,7 @@ StatusOr<std::unique_ptr<MonoVoRunner>> MonoVoModel::NewRunner() const {
     if (net.empty()) return DataLossError("VO model " + path_ + " holds no network");
     net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
     net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
-    return std::make_unique<MonoVoRunner>(std::move(net), info_);
+    return std::make_unique<MonoVoRunner>(net, info_);
   } catch (const cv::Exception& e) {
     return DataLossError("VO model " + path_ + " cannot be imported by OpenCV: " + e.msg);
   } catch (const std::bad_alloc&) {

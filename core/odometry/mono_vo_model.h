@@ -3,9 +3,10 @@
 // names and shapes, sha256 of the graph). Loaded once at start; every MONO session gets its own
 // runner (cv::dnn::Net is not safe to share between threads) with its own recurrent state.
 //
-// One step: image (current canonical frame), prev_image, prev_f2, prev_f3 (the previous
-// frame's encoder features), h, c -> pose6 (T_prev_cur: translation metres, axis-angle
-// radians), depth (metres, canonical camera), h_out, c_out, f2, f3.
+// One step: `image` (the current canonical frame) plus the recurrent state the sidecar lists
+// (for the shipped network the previous frame's encoder features prev_f1..prev_f3 and the LSTM's
+// h, c) -> pose6 (T_prev_cur: translation metres, axis-angle radians), depth (metres, canonical
+// camera) and the state's next values (f1..f3, h_out, c_out).
 #pragma once
 
 #include <Eigen/Geometry>
@@ -21,14 +22,22 @@
 
 namespace semmap {
 
+// One recurrent input: fed with the previous step's `output` (zeros for a sequence's first frame).
+struct MonoVoState {
+  std::string input;
+  std::string output;
+  std::vector<int> shape;  // batch 1, 2 to 4 dimensions
+  // The first frame's value is thrown away and zeros carried instead (the LSTM's h and c: the
+  // first frame has no motion to learn from).
+  bool discard_first = false;
+};
+
 struct MonoVoModelInfo {
   CanonicalCamera camera;        // the network's input size and intrinsics
   std::array<double, 3> mean{};  // x = (rgb / 255 - mean) / std, R, G, B
   std::array<double, 3> stddev{};
-  std::vector<int> f2_shape;  // NCHW of the carried features
-  std::vector<int> f3_shape;
-  int hidden = 0;      // LSTM state size
-  std::string sha256;  // of the ONNX file (hex)
+  std::vector<MonoVoState> state;  // what each step feeds back to the next
+  std::string sha256;              // of the ONNX file (hex)
 };
 
 // Parses the sidecar JSON (format "semmap_vo/1"). INVALID_ARGUMENT naming the field.

@@ -2,10 +2,11 @@
 // synthetic tour streamed colour-only is acknowledged frame by frame, stored with keyframes,
 // lands near the true trajectory without any scale alignment, and the objects it passes are
 // placed from the network's depth. A server whose model is missing or damaged says so and
-// refuses MONO with FAILED_PRECONDITION while RGBD keeps working.
+// refuses MONO with FAILED_PRECONDITION while RGBD keeps working, and `semmapd
+// --check-vo-model` says so too.
 #include <gtest/gtest.h>
-#include <signal.h>
 
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -47,6 +48,9 @@ void Synth(const std::string& path, const std::string& kind, int frames) {
 
 TEST(MonoE2ETest, ASyntheticTourIsTrackedMetricallyAndItsObjectsPlaced) {
   if (!std::filesystem::exists(kModel)) GTEST_SKIP() << "no trained VO model at " << kModel;
+  std::string check;
+  ASSERT_EQ(RunCommand({testing::SemmapdPath(), "--check-vo-model", kModel}, &check), 0);
+  EXPECT_NE(check.find(" OK: input "), std::string::npos) << check;
   testing::TempDir dir;
   const std::string seq = dir.File("tour");
   Synth(seq, "tour", 240);
@@ -114,6 +118,13 @@ TEST(MonoE2ETest, AMissingOrDamagedModelRefusesMonoAndRgbdKeepsWorking) {
     ASSERT_FALSE(rgbd.is_null()) << model;
     EXPECT_EQ(rgbd["frames_stored"], 20);
     EXPECT_EQ(server.Stop(SIGTERM), 0);
+    // The operator's check before deploying says the same without starting a server.
+    std::string check;
+    EXPECT_EQ(RunCommand({"/bin/sh", "-c",
+                          testing::SemmapdPath() + " --check-vo-model " + model + " 2>&1"},
+                         &check),
+              1);
+    EXPECT_NE(check.find("VO model not usable"), std::string::npos) << check;
   }
 }
 

@@ -21,8 +21,12 @@ const char kSidecar[] = R"({
   "input": {"width": 128, "height": 96,
             "normalisation": {"mean": [0.45, 0.45, 0.45], "std": [0.225, 0.225, 0.225]},
             "canonical_camera": {"fx": 105.0, "fy": 105.0, "cx": 63.5, "cy": 47.5}},
-  "inputs": {"image": [1, 3, 96, 128], "prev_image": [1, 3, 96, 128],
-             "prev_f2": [1, 32, 24, 32], "prev_f3": [1, 64, 12, 16], "h": [1, 256], "c": [1, 256]}
+  "inputs": {"image": [1, 3, 96, 128], "prev_f1": [1, 16, 48, 64],
+             "prev_f2": [1, 32, 24, 32], "prev_f3": [1, 64, 12, 16], "h": [1, 256], "c": [1, 256]},
+  "state": [{"input": "prev_f1", "output": "f1"}, {"input": "prev_f2", "output": "f2"},
+            {"input": "prev_f3", "output": "f3"},
+            {"input": "h", "output": "h_out", "first_frame": "discard"},
+            {"input": "c", "output": "c_out", "first_frame": "discard"}]
 })";
 
 TEST(MonoVoSidecarTest, ParsesTheExportersSidecar) {
@@ -32,8 +36,13 @@ TEST(MonoVoSidecarTest, ParsesTheExportersSidecar) {
   EXPECT_EQ(info->camera.height, 96);
   EXPECT_EQ(info->camera.f, 105.0);
   EXPECT_EQ(info->camera.cx, 63.5);
-  EXPECT_EQ(info->hidden, 256);
-  EXPECT_EQ(info->f2_shape, (std::vector<int>{1, 32, 24, 32}));
+  ASSERT_EQ(info->state.size(), 5u);
+  EXPECT_EQ(info->state[1].input, "prev_f2");
+  EXPECT_EQ(info->state[1].output, "f2");
+  EXPECT_EQ(info->state[1].shape, (std::vector<int>{1, 32, 24, 32}));
+  EXPECT_FALSE(info->state[1].discard_first);
+  EXPECT_EQ(info->state[3].shape, (std::vector<int>{1, 256}));
+  EXPECT_TRUE(info->state[3].discard_first);
   EXPECT_EQ(info->stddev[2], 0.225);
 }
 
@@ -48,7 +57,15 @@ TEST(MonoVoSidecarTest, NamesWhatIsWrong) {
             std::string::npos);
   EXPECT_NE(error(good, "\"fy\": 105.0", "\"fy\": 100.0").message().find("fx == fy"),
             std::string::npos);
-  EXPECT_NE(error(good, "[1, 32, 24, 32]", "[1, 32, 24]").message().find("inputs.prev_f2"),
+  EXPECT_NE(error(good, "[1, 32, 24, 32]", "[2, 32, 24]").message().find("inputs.prev_f2"),
+            std::string::npos);
+  EXPECT_NE(error(good, "\"prev_f3\": [1, 64, 12, 16], ", "").message().find("inputs.prev_f3"),
+            std::string::npos);
+  EXPECT_NE(error(good, "\"output\": \"f2\"", "\"output\": \"f1\"").message().find("twice"),
+            std::string::npos);
+  EXPECT_NE(error(good, "\"first_frame\": \"discard\"", "\"first_frame\": 1")
+                .message()
+                .find("first_frame"),
             std::string::npos);
   EXPECT_NE(error(good, "\"std\": [0.225, 0.225, 0.225]", "\"std\": [0.225, 0, 0.225]")
                 .message()
