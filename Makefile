@@ -19,7 +19,7 @@ demo: build
 test: build
 	ctest --preset release -j 2
 
-# Unit tests under AddressSanitizer + UndefinedBehaviorSanitizer (CI runs this too).
+# Unit and integration tests under AddressSanitizer + UndefinedBehaviorSanitizer (CI runs this).
 test-asan: deps
 	cmake --preset asan
 	cmake --build --preset asan -j $(JOBS)
@@ -33,17 +33,21 @@ test-core: deps
 	ctest --preset core -j 2
 
 # clang-format and clang-tidy (.clang-tidy; cached per preprocessed file) on the tree, and the
-# layer rule (CI runs this after `make test`, which writes build/release/compile_commands.json).
+# layer rule (after `make build`, which writes build/release/compile_commands.json).
+# LINT_SINCE=REV checks only what changed since REV (CI: .ci/tidy-baseline, the commit where the
+# whole tree was last checked clean; a cold run of every file takes ~25 minutes on 2 cores).
+LINT_SINCE ?=
 lint: format-check
 	bash scripts/install-deps.sh lint
-	python3 scripts/clang_tidy.py --build-dir build/release --jobs $(JOBS)
+	python3 scripts/clang_tidy.py --build-dir build/release --jobs $(JOBS) $(if $(LINT_SINCE),--since $(LINT_SINCE))
 
 # clang-format on every file (no changes made) and the layer rule on the includes.
 format-check:
 	git ls-files '*.cc' '*.h' | xargs clang-format --dry-run --Werror
 	python3 scripts/check_layers.py
 
-# Unit and integration tests under ThreadSanitizer (clang; -Wthread-safety findings are errors).
+# ThreadSanitizer (clang; -Wthread-safety findings are errors) over the unit tests of the modules
+# that run threads of their own and the integration tests (SEMMAP_TEST_SCOPE=concurrency; CI).
 test-tsan:
 	bash scripts/install-deps.sh fuzz
 	cmake --preset tsan
@@ -75,3 +79,21 @@ format:
 
 clean:
 	rm -rf build
+
+# Learned monocular VO (training/README.md), Debian's /usr/bin/python3 with apt's PyTorch.
+# train-vo: the full reproducible recipe (data, training, export to models/vo/, evaluation;
+# hours on 2 cores; resumable: run it again to continue). train-smoke: the Python tests and a
+# tiny training run on semmap-synth data that must lower the loss and export a model cv2.dnn
+# runs with PyTorch's outputs and `semmapd --check-vo-model` loads (CI, after `make build`;
+# a few minutes; skips the run when semmap-synth is absent).
+VO_RUN ?= $(HOME)/.cache/semmap/vo/runs/full
+.PHONY: train-vo train-smoke
+train-vo:
+	bash scripts/install-deps.sh train
+	test -x build/release/tools/semmap-synth || cmake --build --preset release --target semmap-synth
+	bash training/train_vo.sh $(VO_RUN)
+
+train-smoke:
+	bash scripts/install-deps.sh train
+	/usr/bin/python3 -m pytest training/tests -q -m "not slow"
+	cd training && OMP_WAIT_POLICY=PASSIVE /usr/bin/python3 -m semmap_vo.train --smoke --threads 2

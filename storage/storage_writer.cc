@@ -178,7 +178,7 @@ void StorageWriter::CommitGroup(std::vector<PendingWrite>& group) {
           ids.begin() + static_cast<std::ptrdiff_t>(offset),
           ids.begin() + static_cast<std::ptrdiff_t>(offset + shapes[i].keyframes));
       offset += shapes[i].keyframes;
-      Finish(group[i], OkStatus(), std::move(own));
+      Finish(group[i], OkStatus(), own);
     }
     return;
   }
@@ -191,7 +191,7 @@ void StorageWriter::CommitGroup(std::vector<PendingWrite>& group) {
   }
 }
 
-void StorageWriter::Finish(PendingWrite& write, const Status& status, WriteResult result) {
+void StorageWriter::Finish(PendingWrite& write, const Status& status, const WriteResult& result) {
   if (!status.ok() && drain_status_.ok() && queue_.is_shutdown()) {
     drain_status_ = status.WithContext("storage write during shutdown");
   }

@@ -66,7 +66,7 @@ class StorageWriter {
   // Commits a group of batches in one transaction, falling back to one transaction per batch
   // when the merged write fails so a bad batch fails alone.
   void CommitGroup(std::vector<PendingWrite>& group);
-  void Finish(PendingWrite& write, const Status& status, WriteResult result);
+  void Finish(PendingWrite& write, const Status& status, const WriteResult& result);
   bool OnWriterThread() const { return std::this_thread::get_id() == writer_id_; }
 
   std::unique_ptr<MapStore> store_;

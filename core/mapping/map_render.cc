@@ -653,8 +653,8 @@ void DrawObjectLabels(cv::Mat3b& image, const MapViewProjection& p,
   std::vector<cv::Rect> placed;
   // Nearest first. Reverse iterators: clang 14 (tsan preset) cannot compile libstdc++ 12's
   // std::views::reverse.
-  for (auto it = outlines.rbegin(); it != outlines.rend();
-       ++it) {  // NOLINT(modernize-loop-convert)
+  // NOLINTNEXTLINE(modernize-loop-convert)
+  for (auto it = outlines.rbegin(); it != outlines.rend(); ++it) {
     const auto& outline = *it;
     const std::string text = Printable(outline.object->label, 40);
     if (text.empty()) continue;

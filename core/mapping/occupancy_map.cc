@@ -300,7 +300,7 @@ KeyframeCloud VoxelMeans(const KeyframeCloud& cloud, double voxel) {
   out.points.reserve(sums.size());
   out.colours.reserve(sums.size());
   for (const Sum& sum : sums) {
-    out.points.push_back((sum.xyz / sum.count).cast<float>());
+    out.points.emplace_back((sum.xyz / sum.count).cast<float>());
     std::array<uint8_t, 3> bgr{};
     for (int c = 0; c < 3; ++c) {
       bgr[c] = static_cast<uint8_t>((sum.bgr[c] + sum.count / 2) / sum.count);

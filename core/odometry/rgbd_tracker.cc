@@ -134,7 +134,7 @@ StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
   if (map_.size() == 0 || current.size() == 0) return std::optional<Solution>();
   const double scale = options_.local_map.octave_scale;
   const double pixel_sigma = options_.local_map.pixel_sigma;
-  const auto Observations = [&](const std::vector<cv::DMatch>& matches) {
+  const auto observations_of = [&](const std::vector<cv::DMatch>& matches) {
     std::vector<RgbdObservation> obs(matches.size());
     for (size_t m = 0; m < matches.size(); ++m) {
       const size_t k = static_cast<size_t>(matches[m].trainIdx);
@@ -174,8 +174,8 @@ StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
     }
     return initial.status();
   }
-  RgbdRefinement refined = RefinePoseRgbd(Observations(matches), options_.camera, options_.refiner,
-                                          initial->T_reference_current.inverse());
+  RgbdRefinement refined = RefinePoseRgbd(observations_of(matches), options_.camera,
+                                          options_.refiner, initial->T_reference_current.inverse());
   *pose_ms += MillisecondsSince(start);
 
   if (options_.map_refine_radius_px > 0 && refined.num_inliers >= options_.motion.min_inliers) {
@@ -189,7 +189,7 @@ StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
         MatchGuided(map_.descriptors(), predicted, current.descriptors, current.keypoints, tight));
     *match_ms += MillisecondsSince(start);
     start = Clock::now();
-    RgbdRefinement second = RefinePoseRgbd(Observations(more), options_.camera, options_.refiner,
+    RgbdRefinement second = RefinePoseRgbd(observations_of(more), options_.camera, options_.refiner,
                                            refined.T_current_reference);
     *pose_ms += MillisecondsSince(start);
     if (second.num_inliers >= refined.num_inliers) {
@@ -283,7 +283,7 @@ StatusOr<RgbdTracker::Attempt> RgbdTracker::TrackFull(
 StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedDepth& depth,
                                             int64_t stamp_ns) {
   const Clock::time_point start = Clock::now();
-  const auto Inliers = [](const Attempt* a) {
+  const auto inliers_of = [](const Attempt* a) {
     return a->estimate ? static_cast<int>(a->estimate->inliers.size()) : -1;
   };
   if (last_stamp_ns_ && stamp_ns <= *last_stamp_ns_) {
@@ -313,11 +313,11 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
   }
 
   double match_ms = 0, pose_ms = 0;
-  const auto Account = [&](const Attempt& a) {
+  const auto account = [&](const Attempt& a) {
     match_ms += a.match_ms;
     pose_ms += a.pose_ms;
   };
-  const auto FromAttempt = [](const Keyframe& kf, const Attempt& a) {
+  const auto from_attempt = [](const Keyframe& kf, const Attempt& a) {
     Solution sol;
     sol.T_world_current = kf.T_world_camera * a.estimate->T_reference_current;
     sol.information = a.estimate->information;
@@ -339,12 +339,12 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
     const Keyframe& ref = keyframes_.back();
     const Eigen::Isometry3d T_ref_cur_predicted = ref.T_world_camera.inverse() * T_world_predicted;
     SEMMAP_ASSIGN_OR_RETURN(Attempt attempt, TrackGuided(ref, current, T_ref_cur_predicted));
-    Account(attempt);
+    account(attempt);
     bool guided = true;
-    if (Inliers(&attempt) < options_.min_guided_inliers) {
+    if (inliers_of(&attempt) < options_.min_guided_inliers) {
       SEMMAP_ASSIGN_OR_RETURN(Attempt full, TrackFull(ref, current, T_ref_cur_predicted));
-      Account(full);
-      if (Inliers(&full) > Inliers(&attempt)) {
+      account(full);
+      if (inliers_of(&full) > inliers_of(&attempt)) {
         attempt = std::move(full);
         guided = false;
       }
@@ -355,8 +355,8 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
       // 3. Relocalisation against the older keyframes, newest first.
       for (auto it = keyframes_.rbegin() + 1; it != keyframes_.rend(); ++it) {
         SEMMAP_ASSIGN_OR_RETURN(Attempt a, TrackFull(*it, current, std::nullopt));
-        Account(a);
-        if (Inliers(&a) > Inliers(&attempt)) {
+        account(a);
+        if (inliers_of(&a) > inliers_of(&attempt)) {
           attempt = std::move(a);
           used = &*it;
         }
@@ -365,7 +365,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
       guided = false;
     }
     if (attempt.estimate) {
-      Solution from_keyframe = FromAttempt(*used, attempt);
+      Solution from_keyframe = from_attempt(*used, attempt);
       SEMMAP_ASSIGN_OR_RETURN(
           std::optional<Solution> again,
           TrackLocalMap(current, from_keyframe.T_world_current, &match_ms, &pose_ms));

@@ -39,14 +39,17 @@ SlamBackend* MapPipeline::backend() const {
 }
 
 void MapPipeline::PublishPoses(std::vector<KeyframePose> poses, bool correction) {
-  for (size_t i = 0; i < consumers_.size(); ++i) {
-    const Status status = consumers_[i]->OnKeyframePoses(
-        i + 1 == consumers_.size() ? std::move(poses) : poses, correction);
+  const auto deliver = [&](MapConsumer& consumer, std::vector<KeyframePose> list) {
+    const Status status = consumer.OnKeyframePoses(std::move(list), correction);
     // A consumer refuses only once stopped (shutdown, a removal): nothing is left to build.
     if (!status.ok()) {
-      LogDebug("{}: keyframe poses not delivered: {}", consumers_[i]->name(), status.ToString());
+      LogDebug("{}: keyframe poses not delivered: {}", consumer.name(), status.ToString());
     }
-  }
+  };
+  if (consumers_.empty()) return;
+  // Every consumer but the last gets a copy; the last takes the list.
+  for (size_t i = 0; i + 1 < consumers_.size(); ++i) deliver(*consumers_[i], poses);
+  deliver(*consumers_.back(), std::move(poses));
 }
 
 Status MapPipeline::PublishKeyframe(const MapKeyframe& keyframe) {

@@ -46,18 +46,18 @@ IngestReactor::IngestReactor(grpc::CallbackServerContext* context, IngestManager
   // Open starts the session's threads, which may call the Sink (QueueRoom reads stream_ and
   // read_in_flight_) before this constructor finishes: the state is set under the lock.
   StatusOr<std::shared_ptr<IngestSessionHandle>> stream = manager->Open(sink_);
-  {
-    MutexLock lock(mutex_);
-    if (!stream.ok()) {
-      finish_called_ = true;
-    } else {
-      stream_ = std::move(stream).value();
-      read_in_flight_ = true;
-    }
-  }
   if (!stream.ok()) {
+    {
+      MutexLock lock(mutex_);
+      finish_called_ = true;
+    }
     Finish(ToGrpcStatus(stream.status()));
     return;
+  }
+  {
+    MutexLock lock(mutex_);
+    stream_ = std::move(stream).value();
+    read_in_flight_ = true;
   }
   StartRead(&request_);
 }

@@ -1,8 +1,8 @@
 // semmap sessions remove / maps remove against a real semmapd: nothing is removed without
 // confirmation, what is confirmed is gone, and the rest of the map keeps working.
 #include <gtest/gtest.h>
-#include <signal.h>
 
+#include <csignal>
 #include <string>
 #include <vector>
 

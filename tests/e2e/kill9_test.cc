@@ -1,9 +1,9 @@
 // semmapd killed with SIGKILL mid-ingest, again and again: the database must stay intact and
 // every frame the server acknowledged as durable must be there after reopening.
 #include <gtest/gtest.h>
-#include <signal.h>
 
 #include <atomic>
+#include <csignal>
 #include <random>
 #include <thread>
 

@@ -4,10 +4,10 @@
 // the first TUM fr3/teddy frame is found once within 0.10 m of its true position, and the café
 // sequence (no teddy in it) gives no teddy.
 #include <gtest/gtest.h>
-#include <signal.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <csignal>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -97,7 +97,8 @@ TEST(ObjectsE2ETest, SyntheticRoomObjectsAreFoundWhereTheyAre) {
   const Cli cli{server.address()};
   for (const auto& [label, object] : truth) {
     const nlohmann::json added =
-        cli.Json({"objects", "add", label, seq + "/objects/" + label + ".png"});
+        cli.Json({"objects", "add", label,
+                  std::string(seq).append("/objects/").append(label).append(".png")});
     ASSERT_FALSE(added.is_null()) << label;
     EXPECT_EQ(added["object"]["label"], label);
   }

@@ -3,8 +3,8 @@
 // loop (a loop link is stored), and the stored trajectory's ATE is within a tight bound. With
 // the shared data present, the real TUM fr3/teddy sequence is tracked on every frame too.
 #include <gtest/gtest.h>
-#include <signal.h>
 
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -92,14 +92,14 @@ void WriteReorderedSequence(const std::string& source, const std::string& out,
   const std::vector<std::string> gt = testing::DataLines(source + "/groundtruth.txt");
   std::ofstream rgb_out(out + "/rgb.txt"), depth_out(out + "/depth.txt"),
       gt_out(out + "/groundtruth.txt");
-  const auto After = [](const std::string& line) { return line.substr(line.find(' ')); };
+  const auto after = [](const std::string& line) { return line.substr(line.find(' ')); };
   for (size_t k = 0; k < order.size(); ++k) {
     char stamp[32];
     std::snprintf(stamp, sizeof(stamp), "%.6f", 1800000000.0 + static_cast<double>(k) / 30.0);
     const size_t i = static_cast<size_t>(order[k]);
-    rgb_out << stamp << After(rgb[i]) << "\n";
-    depth_out << stamp << After(depth[i]) << "\n";
-    gt_out << stamp << After(gt[i]) << "\n";
+    rgb_out << stamp << after(rgb[i]) << "\n";
+    depth_out << stamp << after(depth[i]) << "\n";
+    gt_out << stamp << after(gt[i]) << "\n";
   }
 }
 

@@ -2,9 +2,9 @@
 // ends (OK or UNAVAILABLE), everything acknowledged as durable is stored and the session is
 // closed, and the database needs no recovery.
 #include <gtest/gtest.h>
-#include <signal.h>
 
 #include <atomic>
+#include <csignal>
 #include <thread>
 
 #include "client/lib/map_client.h"

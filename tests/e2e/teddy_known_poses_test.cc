@@ -1,8 +1,8 @@
 // The real TUM fr3/teddy sequence streamed by the semmap CLI into a semmapd process with its
 // ground-truth poses; after a restart the session, all 200 poses and the keyframes are there.
 #include <gtest/gtest.h>
-#include <signal.h>
 
+#include <csignal>
 #include <nlohmann/json.hpp>
 
 #include "tests/testing/server_process.h"

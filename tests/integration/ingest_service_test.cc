@@ -320,6 +320,7 @@ TEST_F(IngestServiceTest, DataSurvivesRestart) {
 TEST_F(IngestServiceTest, SeveralSessionsAtOnce) {
   std::vector<std::thread> threads;
   std::vector<Status> results(3);
+  threads.reserve(3);
   for (int s = 0; s < 3; ++s) {
     threads.emplace_back(
         [&, s] { results[s] = Stream(KnownPosesStart("multi", "s" + std::to_string(s)), 20); });

@@ -1,11 +1,11 @@
 #include "tests/testing/server_process.h"
 
 #include <poll.h>
-#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <csignal>
 #include <cstring>
 
 namespace semmap::testing {
@@ -13,6 +13,7 @@ namespace {
 
 std::vector<char*> Argv(const std::vector<std::string>& args) {
   std::vector<char*> out;
+  out.reserve(args.size());
   for (const std::string& a : args) out.push_back(const_cast<char*>(a.c_str()));
   out.push_back(nullptr);
   return out;

@@ -97,8 +97,8 @@ StatusOr<std::vector<ObjectRecord>> ReadObjectsFile(const std::string& path) {
     record.label = tokens[0];
     for (int i = 0; i < 6; ++i) {
       double v = 0;
-      if (!ParseNumber(tokens[static_cast<size_t>(i + 1)], &v)) {
-        return InvalidArgumentError(where + "'" + tokens[static_cast<size_t>(i + 1)] +
+      if (!ParseNumber(tokens[static_cast<size_t>(i) + 1], &v)) {
+        return InvalidArgumentError(where + "'" + tokens[static_cast<size_t>(i) + 1] +
                                     "' is not a number");
       }
       (i < 3 ? record.centre : record.size)[i % 3] = v;

@@ -78,7 +78,9 @@ NamedObject ObjectFromBounds(const std::string& label, const Eigen::AlignedBox3d
 }
 
 Status AddRoom(SceneBuilder& b, const Eigen::AlignedBox3d& room) {
-  const Vector3d lo = room.min(), hi = room.max(), mid = room.center(), size = room.sizes();
+  const Vector3d& lo = room.min();
+  const Vector3d& hi = room.max();
+  const Vector3d mid = room.center(), size = room.sizes();
   const Vector3d z = Vector3d::UnitZ(), y = Vector3d::UnitY();
   const TextureStyle wall = TextureStyle::kWall;
   SEMMAP_RETURN_IF_ERROR(b.AddSurface({lo.x(), mid.y(), mid.z()}, Vector3d::UnitX(), z, size.y(),

@@ -97,8 +97,8 @@ Status WriteTumSequence(const std::string& dir, const Scene& scene,
     const std::string rgb = "rgb/" + stamp + ".png", depth = "depth/" + stamp + ".png";
     SEMMAP_RETURN_IF_ERROR(WritePng((root / rgb).string(), frame.bgr));
     SEMMAP_RETURN_IF_ERROR(WritePng((root / depth).string(), frame.depth));
-    rgb_list += stamp + " " + rgb + "\n";
-    depth_list += stamp + " " + depth + "\n";
+    rgb_list.append(stamp).append(" ").append(rgb).append("\n");
+    depth_list.append(stamp).append(" ").append(depth).append("\n");
     if (options.progress) options.progress(i + 1, trajectory.size());
   }
   SEMMAP_RETURN_IF_ERROR(WriteTextFile((root / "depth.txt").string(), depth_list));

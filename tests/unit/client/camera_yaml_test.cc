@@ -71,7 +71,7 @@ TEST(CameraYamlTest, RejectsMalformedLines) {
   for (const std::string bad :
        {"fx 500\n", "depth_scale:\n", "width: 640.5\n", "fx: abc\n", "distortion: [1, 2]\n",
         "distortion: 1, 2, 3, 4, 5\n", "distortion: [1, 2, x, 4, 5]\n", "depth_scale: -1\n"}) {
-    StatusOr<CameraYaml> yaml = ReadText(tmp, "# header\n" + bad + base);
+    StatusOr<CameraYaml> yaml = ReadText(tmp, std::string("# header\n").append(bad).append(base));
     ASSERT_FALSE(yaml.ok()) << bad;
     EXPECT_EQ(yaml.status().code(), StatusCode::kInvalidArgument) << bad;
     if (bad != "depth_scale: -1\n") {  // range checks run after the last line

@@ -67,7 +67,7 @@ TEST(TumTrajectoryTest, MalformedLinesNameFileAndLine) {
            "2.0 0 0 0 0.5 0 0 0.5\n",               // not unit length
            "99999999999999999999 0 0 0 0 0 0 1\n",  // stamp beyond int64 nanoseconds
        }) {
-    WriteFile(tmp.File("gt.txt"), good + "# comment\n" + bad);
+    WriteFile(tmp.File("gt.txt"), std::string(good).append("# comment\n").append(bad));
     StatusOr<std::vector<StampedPose>> poses = ReadTumTrajectory(tmp.File("gt.txt"));
     ASSERT_FALSE(poses.ok()) << bad;
     EXPECT_EQ(poses.status().code(), StatusCode::kInvalidArgument);
@@ -176,6 +176,7 @@ TEST(KittiPosesTest, RejectsBadLines) {
 TEST(KittiPosesTest, WriteReadRoundTrip) {
   TempDir tmp;
   std::vector<StampedPose> written;
+  written.reserve(10);
   for (int i = 0; i < 10; ++i) {
     written.push_back({i, MakePose(0.3 * i, Eigen::Vector3d(0.2, 1, 0.1 * i),
                                    Eigen::Vector3d(i * 1.1, -0.5 * i, 100.0 + i))});

@@ -223,7 +223,7 @@ TEST(PipelineStageTest, SynchronousModeHandlesOnTheCallersThread) {
 
 TEST(PipelineStageTest, AThreadThatCannotStartIsResourceExhaustedAndNothingRuns) {
   StageConfig config = Config(4);
-  config.launch_thread = [](std::function<void()>) -> StatusOr<std::thread> {
+  config.launch_thread = [](const std::function<void()>&) -> StatusOr<std::thread> {
     return ResourceExhaustedError("no threads left");
   };
   RecordingStage stage(config);
@@ -240,6 +240,7 @@ TEST(PipelineStageTest, ManyProducersAndFlushersAtOnce) {
   RecordingStage stage(Config(3));
   ASSERT_TRUE(stage.Start().ok());
   std::vector<std::thread> producers;
+  producers.reserve(4);
   for (int p = 0; p < 4; ++p) {
     producers.emplace_back([&, p] {
       for (int i = 0; i < 50; ++i) {

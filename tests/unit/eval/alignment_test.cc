@@ -19,7 +19,8 @@ std::vector<V> Cloud() {
 std::vector<V> Moved(const std::vector<V>& points, const Eigen::Matrix3d& R, const V& t,
                      double s = 1.0) {
   std::vector<V> out;
-  for (const V& p : points) out.push_back(s * (R * p) + t);
+  out.reserve(points.size());
+  for (const V& p : points) out.emplace_back(s * (R * p) + t);
   return out;
 }
 
@@ -29,7 +30,8 @@ TEST(AlignPointsTest, RecoversARigidMotion) {
   const std::vector<V> target = Cloud();
   // source = R^-1 (target - t): aligning source onto target must give back R and t.
   std::vector<V> source;
-  for (const V& p : target) source.push_back(R.transpose() * (p - t));
+  source.reserve(target.size());
+  for (const V& p : target) source.emplace_back(R.transpose() * (p - t));
   StatusOr<Alignment> a = AlignPoints(source, target, false);
   ASSERT_TRUE(a.ok()) << a.status().ToString();
   EXPECT_LT((a->rotation - R).norm(), 1e-12);
@@ -54,7 +56,8 @@ TEST(AlignPointsTest, RecoversASimilarity) {
 TEST(AlignPointsTest, NeverReturnsAReflection) {
   std::vector<V> source = Cloud();
   std::vector<V> target;
-  for (const V& p : source) target.push_back({p.x(), p.y(), -p.z()});  // mirror image
+  target.reserve(source.size());
+  for (const V& p : source) target.emplace_back(p.x(), p.y(), -p.z());  // mirror image
   StatusOr<Alignment> a = AlignPoints(source, target, false);
   ASSERT_TRUE(a.ok());
   EXPECT_NEAR(a->rotation.determinant(), 1.0, 1e-12);
@@ -65,8 +68,8 @@ TEST(AlignPointsTest, StraightLinesAreFine) {
   // Both collinear: every optimal rotation gives the same aligned points.
   std::vector<V> source, target;
   for (int i = 0; i < 10; ++i) {
-    source.push_back({0, 0.5 * i, 0});
-    target.push_back({1.0 * i, 2, 3});
+    source.emplace_back(0, 0.5 * i, 0);
+    target.emplace_back(1.0 * i, 2, 3);
   }
   StatusOr<Alignment> a = AlignPoints(source, target, true);
   ASSERT_TRUE(a.ok()) << a.status().ToString();

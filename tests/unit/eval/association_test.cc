@@ -16,11 +16,13 @@ using eval_test::MakePose;
 
 std::vector<size_t> Firsts(const std::vector<StampMatch>& m) {
   std::vector<size_t> out;
+  out.reserve(m.size());
   for (const StampMatch& x : m) out.push_back(x.first);
   return out;
 }
 std::vector<size_t> Seconds(const std::vector<StampMatch>& m) {
   std::vector<size_t> out;
+  out.reserve(m.size());
   for (const StampMatch& x : m) out.push_back(x.second);
   return out;
 }

@@ -19,6 +19,7 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 // Straight ahead along z (the KITTI camera's forward axis), 1 m per frame, frames 0..n-1.
 std::vector<StampedPose> Straight(int n, double metres_per_frame = 1.0) {
   std::vector<StampedPose> out;
+  out.reserve(n);
   for (int i = 0; i < n; ++i) out.push_back(MakePose(i, {0, 0, metres_per_frame * i}));
   return out;
 }

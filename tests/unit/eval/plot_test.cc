@@ -33,7 +33,7 @@ int CountColour(const cv::Mat& image, const cv::Vec3b& colour, int tolerance = 4
   int n = 0;
   for (int y = 0; y < image.rows; ++y) {
     for (int x = 0; x < image.cols; ++x) {
-      const cv::Vec3b p = image.at<cv::Vec3b>(y, x);
+      const cv::Vec3b& p = image.at<cv::Vec3b>(y, x);
       if (std::abs(p[0] - colour[0]) + std::abs(p[1] - colour[1]) + std::abs(p[2] - colour[2]) <
           tolerance) {
         ++n;
@@ -117,6 +117,7 @@ TEST(PlotTest, Errors) {
 TEST(PlotTest, StraightLineAndFlatErrorsStillRender) {
   // Zero extent on two axes and identical errors everywhere must not divide by zero.
   std::vector<StampedPose> gt;
+  gt.reserve(20);
   for (int i = 0; i < 20; ++i) {
     gt.push_back(eval_test::MakePose(eval_test::kT0 + i * 100 * eval_test::kMs, {0, 0, 1.0 * i}));
   }

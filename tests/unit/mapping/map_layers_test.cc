@@ -117,6 +117,7 @@ std::vector<VoxelKey> Keys(const OccupancyMap& map) {
 std::vector<std::tuple<float, float, float, int, int, int>> PointKeys(
     const std::vector<CloudPoint>& points) {
   std::vector<std::tuple<float, float, float, int, int, int>> out;
+  out.reserve(points.size());
   for (const CloudPoint& p : points) out.emplace_back(p.x, p.y, p.z, p.r, p.g, p.b);
   std::sort(out.begin(), out.end());
   return out;

@@ -107,7 +107,7 @@ cv::Point PixelOf(const MapViewProjection& p, const Eigen::Vector3d& world) {
 
 // RGB at a pixel.
 std::array<int, 3> RgbAt(const cv::Mat& image, cv::Point px) {
-  const cv::Vec3b bgr = image.at<cv::Vec3b>(px);
+  const cv::Vec3b& bgr = image.at<cv::Vec3b>(px);
   return {bgr[2], bgr[1], bgr[0]};
 }
 
@@ -305,7 +305,7 @@ TEST(MapRenderTest, ObjectLabelDrawnAboveTheBox) {
   int dark = 0, light = 0;
   for (int y = changes.y; y < changes.y + changes.height; ++y) {
     for (int x = changes.x; x < changes.x + changes.width; ++x) {
-      const cv::Vec3b v = a.at<cv::Vec3b>(y, x);
+      const cv::Vec3b& v = a.at<cv::Vec3b>(y, x);
       if (v[0] < 90 && v[1] < 90 && v[2] < 90) ++dark;
       if (v[0] > 220 && v[1] > 220 && v[2] > 220) ++light;
     }

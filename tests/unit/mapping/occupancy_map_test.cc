@@ -87,6 +87,7 @@ std::vector<Keyframe> RenderKeyframes(const std::vector<Eigen::Isometry3d>& pose
 std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> AtPoses(
     const std::vector<Keyframe>& keyframes, const Eigen::Isometry3d& T_offset) {
   std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> out;
+  out.reserve(keyframes.size());
   for (const Keyframe& k : keyframes) out.emplace_back(&k.cloud, T_offset * k.T_world_camera);
   return out;
 }
@@ -159,23 +160,23 @@ bool OccupiedNear(const OccupancyMap& map, const Eigen::Vector3d& p, const Eigen
 class OccupancyMapRoomTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    keyframes_ =
+    room_keyframes =
         new std::vector<Keyframe>(RenderKeyframes(KeyframePoses(10), OccupancyMapOptions{}));
     StatusOr<OccupancyMap> map =
-        OccupancyMap::Build(AtPoses(*keyframes_, Eigen::Isometry3d::Identity()), {});
+        OccupancyMap::Build(AtPoses(*room_keyframes, Eigen::Isometry3d::Identity()), {});
     ASSERT_TRUE(map.ok()) << map.status().ToString();
-    map_ = new OccupancyMap(std::move(map).value());
+    room_map = new OccupancyMap(std::move(map).value());
   }
   static void TearDownTestSuite() {
-    delete map_;
-    delete keyframes_;
+    delete room_map;
+    delete room_keyframes;
   }
 
-  static std::vector<Keyframe>* keyframes_;
-  static OccupancyMap* map_;
+  static std::vector<Keyframe>* room_keyframes;
+  static OccupancyMap* room_map;
 };
-std::vector<Keyframe>* OccupancyMapRoomTest::keyframes_ = nullptr;
-OccupancyMap* OccupancyMapRoomTest::map_ = nullptr;
+std::vector<Keyframe>* OccupancyMapRoomTest::room_keyframes = nullptr;
+OccupancyMap* OccupancyMapRoomTest::room_map = nullptr;
 
 TEST(OccupancyMapOptionsTest, Validate) {
   EXPECT_TRUE(OccupancyMapOptions{}.Validate().ok());
@@ -264,7 +265,7 @@ TEST(KeyframeCloudTest, SubsamplesBackProjectsAndDropsFarPoints) {
 }
 
 TEST_F(OccupancyMapRoomTest, WallsAndShelfAreOccupied) {
-  const OccupancyMap& map = *map_;
+  const OccupancyMap& map = *room_map;
   // Wall points away from the furniture, at the camera height.
   EXPECT_TRUE(OccupiedNear(map, {3.0, 0.8, 1.4}, Eigen::Vector3d::UnitX()));
   EXPECT_TRUE(OccupiedNear(map, {-3.0, -1.5, 1.4}, Eigen::Vector3d::UnitX()));
@@ -275,7 +276,7 @@ TEST_F(OccupancyMapRoomTest, WallsAndShelfAreOccupied) {
   // Every rendered depth pixel on a coarse grid ends in an occupied voxel.
   const CameraCalibration& c = SharedRenderer().camera();
   int checked = 0, hit = 0;
-  for (const Keyframe& k : *keyframes_) {
+  for (const Keyframe& k : *room_keyframes) {
     for (int v = 20; v < c.height; v += 40) {
       for (int u = 20; u < c.width; u += 40) {
         const double z = k.frame.depth.at<uint16_t>(v, u) / synth::kDepthScale;
@@ -293,10 +294,10 @@ TEST_F(OccupancyMapRoomTest, WallsAndShelfAreOccupied) {
 }
 
 TEST_F(OccupancyMapRoomTest, FreeBetweenCameraAndWallUnknownBehind) {
-  const OccupancyMap& map = *map_;
+  const OccupancyMap& map = *room_map;
   const CameraCalibration& c = SharedRenderer().camera();
   int checked = 0, free = 0;
-  for (const Keyframe& k : *keyframes_) {
+  for (const Keyframe& k : *room_keyframes) {
     for (int v = 60; v < c.height; v += 60) {
       for (int u = 60; u < c.width; u += 60) {
         const double z = k.frame.depth.at<uint16_t>(v, u) / synth::kDepthScale;
@@ -336,13 +337,13 @@ TEST_F(OccupancyMapRoomTest, RebuildAfterLoopClosureMatchesFreshBuild) {
   // The drifted map: every keyframe off by the same rigid offset.
   const Eigen::Isometry3d T_drift =
       Eigen::Translation3d(0.3, -0.2, 0.1) * Eigen::AngleAxisd(0.08, Eigen::Vector3d::UnitZ());
-  StatusOr<OccupancyMap> drifted = OccupancyMap::Build(AtPoses(*keyframes_, T_drift), {});
+  StatusOr<OccupancyMap> drifted = OccupancyMap::Build(AtPoses(*room_keyframes, T_drift), {});
   ASSERT_TRUE(drifted.ok()) << drifted.status().ToString();
-  EXPECT_NE(Keys(*drifted), Keys(*map_));
+  EXPECT_NE(Keys(*drifted), Keys(*room_map));
   EXPECT_FALSE(OccupiedNear(*drifted, {3.0, 0.8, 1.4}, Eigen::Vector3d::UnitX()));
   // Corrected poses: rebuilt from the same keyframe-frame clouds.
   StatusOr<OccupancyMap> rebuilt =
-      OccupancyMap::Build(AtPoses(*keyframes_, Eigen::Isometry3d::Identity()), {});
+      OccupancyMap::Build(AtPoses(*room_keyframes, Eigen::Isometry3d::Identity()), {});
   ASSERT_TRUE(rebuilt.ok());
   // A fresh build from newly rendered keyframes at the true poses.
   const std::vector<Keyframe> fresh_keyframes = RenderKeyframes(KeyframePoses(10), {});
@@ -355,17 +356,17 @@ TEST_F(OccupancyMapRoomTest, RebuildAfterLoopClosureMatchesFreshBuild) {
 }
 
 TEST_F(OccupancyMapRoomTest, OtRoundTripPreservesTreeAndLeavesLiveTreeAlone) {
-  const size_t size_before = map_->size();
-  const std::vector<VoxelKey> keys_before = Keys(*map_);
+  const size_t size_before = room_map->size();
+  const std::vector<VoxelKey> keys_before = Keys(*room_map);
   ASSERT_GT(keys_before.size(), 1000U);
-  StatusOr<std::string> ot = map_->SerializeOt();
+  StatusOr<std::string> ot = room_map->SerializeOt();
   ASSERT_TRUE(ot.ok()) << ot.status().ToString();
-  StatusOr<std::string> bt = map_->SerializeBt();
+  StatusOr<std::string> bt = room_map->SerializeBt();
   ASSERT_TRUE(bt.ok()) << bt.status().ToString();
   EXPECT_EQ(bt->rfind("# Octomap OcTree binary file", 0), 0U);
   EXPECT_LT(bt->size(), ot->size());
-  EXPECT_EQ(map_->size(), size_before);
-  EXPECT_EQ(Keys(*map_), keys_before);
+  EXPECT_EQ(room_map->size(), size_before);
+  EXPECT_EQ(Keys(*room_map), keys_before);
 
   OccupancyMapOptions options;
   options.resolution_m = 0.1;  // overridden by the file's
@@ -376,33 +377,33 @@ TEST_F(OccupancyMapRoomTest, OtRoundTripPreservesTreeAndLeavesLiveTreeAlone) {
   EXPECT_EQ(Keys(*back), keys_before);  // centres, sizes and log-odds
   EXPECT_EQ(*back->SerializeOt(), *ot);
   // Insertion still works on a loaded map.
-  EXPECT_TRUE(back->Insert((*keyframes_)[0].cloud, (*keyframes_)[0].T_world_camera).ok());
+  EXPECT_TRUE(back->Insert((*room_keyframes)[0].cloud, (*room_keyframes)[0].T_world_camera).ok());
 }
 
 TEST_F(OccupancyMapRoomTest, OtRoundTripPreservesColoursExactly) {
-  const std::vector<ColourKey> before = ColourKeys(*map_);
+  const std::vector<ColourKey> before = ColourKeys(*room_map);
   ASSERT_GT(before.size(), 1000U);
   // Colour made it into the tree: almost every occupied voxel has one.
   const auto coloured = std::count_if(before.begin(), before.end(),
                                       [](const ColourKey& k) { return std::get<5>(k) != kWhite; });
   EXPECT_GT(coloured, static_cast<std::ptrdiff_t>(before.size() * 99 / 100));
-  StatusOr<std::string> ot = map_->SerializeOt();
+  StatusOr<std::string> ot = room_map->SerializeOt();
   ASSERT_TRUE(ot.ok()) << ot.status().ToString();
   EXPECT_NE(ot->find("\nid ColorOcTree\n"), std::string::npos);
   StatusOr<OccupancyMap> back = OccupancyMap::DeserializeOt(*ot);
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_EQ(ColourKeys(*back), before);
-  EXPECT_EQ(ColourKeys(*map_), before);  // serialising left the live tree alone
+  EXPECT_EQ(ColourKeys(*room_map), before);  // serialising left the live tree alone
   for (const OccupancyMap::Voxel& v : back->OccupiedVoxels()) {
     ASSERT_EQ(back->ColourAt(v.centre), v.rgb);
-    ASSERT_EQ(map_->ColourAt(v.centre), v.rgb);
+    ASSERT_EQ(room_map->ColourAt(v.centre), v.rgb);
   }
 }
 
 // Insert() updates inner colours only above the voxels it recoloured; OctoMap's full
 // ColorOcTree::updateInnerOccupancy() on the saved tree gives the same inner nodes.
 TEST_F(OccupancyMapRoomTest, InnerColoursMatchOctomapsFullUpdate) {
-  StatusOr<std::string> ot = map_->SerializeOt();
+  StatusOr<std::string> ot = room_map->SerializeOt();
   ASSERT_TRUE(ot.ok());
   std::istringstream in(*ot);
   std::unique_ptr<octomap::AbstractOcTree> read(octomap::AbstractOcTree::read(in));
@@ -432,7 +433,7 @@ TEST_F(OccupancyMapRoomTest, InnerColoursMatchOctomapsFullUpdate) {
 }
 
 TEST_F(OccupancyMapRoomTest, BtReadsBackAsPlainOcTree) {
-  StatusOr<std::string> bt = map_->SerializeBt();
+  StatusOr<std::string> bt = room_map->SerializeBt();
   ASSERT_TRUE(bt.ok()) << bt.status().ToString();
   EXPECT_NE(bt->find("\nid OcTree\n"), std::string::npos);
   octomap::OcTree tree(0.1);
@@ -440,9 +441,9 @@ TEST_F(OccupancyMapRoomTest, BtReadsBackAsPlainOcTree) {
   ASSERT_TRUE(tree.readBinary(in));
   EXPECT_DOUBLE_EQ(tree.getResolution(), 0.05);
   ASSERT_GT(tree.size(), 0U);
-  EXPECT_LT(tree.size(), map_->size());  // pruned
+  EXPECT_LT(tree.size(), room_map->size());  // pruned
   // Max-likelihood: the same occupied / free split as the live map.
-  const std::vector<OccupancyMap::Voxel> occupied = map_->OccupiedVoxels();
+  const std::vector<OccupancyMap::Voxel> occupied = room_map->OccupiedVoxels();
   for (const OccupancyMap::Voxel& v : occupied) {
     const octomap::OcTreeNode* node = tree.search(v.centre.x(), v.centre.y(), v.centre.z());
     ASSERT_NE(node, nullptr) << v.centre.transpose();
@@ -452,20 +453,20 @@ TEST_F(OccupancyMapRoomTest, BtReadsBackAsPlainOcTree) {
   for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
     if (!tree.isNodeOccupied(*it)) continue;
     const octomap::point3d c = it.getCoordinate();
-    EXPECT_EQ(map_->Occupancy({c.x(), c.y(), c.z()}), VoxelState::kOccupied);
+    EXPECT_EQ(room_map->Occupancy({c.x(), c.y(), c.z()}), VoxelState::kOccupied);
     ++bt_occupied;
   }
   EXPECT_GT(bt_occupied, 0U);
   EXPECT_LE(bt_occupied, occupied.size());  // pruning can merge occupied leaves
   // Half way along the ray through the first keyframe's centre pixel.
-  const Keyframe& k = (*keyframes_)[0];
+  const Keyframe& k = (*room_keyframes)[0];
   const CameraCalibration& c = SharedRenderer().camera();
   const int u = c.width / 2, v = c.height / 2;
   const double z = k.frame.depth.at<uint16_t>(v, u) / synth::kDepthScale;
   ASSERT_GT(z, 1.0);
   const Eigen::Vector3d free_point =
       k.T_world_camera * (0.5 * z * Eigen::Vector3d((u - c.cx) / c.fx, (v - c.cy) / c.fy, 1.0));
-  ASSERT_EQ(map_->Occupancy(free_point), VoxelState::kFree);
+  ASSERT_EQ(room_map->Occupancy(free_point), VoxelState::kFree);
   const octomap::OcTreeNode* node = tree.search(free_point.x(), free_point.y(), free_point.z());
   ASSERT_NE(node, nullptr);
   EXPECT_FALSE(tree.isNodeOccupied(node));
@@ -747,20 +748,20 @@ class DamagedOtTest : public ::testing::Test {
     StatusOr<OccupancyMap> map =
         OccupancyMap::Build(AtPoses(keyframes, Eigen::Isometry3d::Identity()), {});
     if (!map.ok()) std::abort();
-    ot_ = new std::string(*map->SerializeOt());
+    room_ot = new std::string(*map->SerializeOt());
   }
-  static void TearDownTestSuite() { delete ot_; }
+  static void TearDownTestSuite() { delete room_ot; }
 
   static bool IsDamageError(const Status& s) {
     return s.code() == StatusCode::kDataLoss || s.code() == StatusCode::kInvalidArgument;
   }
 
-  static std::string* ot_;
+  static std::string* room_ot;
 };
-std::string* DamagedOtTest::ot_ = nullptr;
+std::string* DamagedOtTest::room_ot = nullptr;
 
 TEST_F(DamagedOtTest, TruncatedIsAnError) {
-  const std::string& ot = *ot_;
+  const std::string& ot = *room_ot;
   ASSERT_GT(ot.size(), 10000U);
   ASSERT_TRUE(OccupancyMap::DeserializeOt(ot).ok());
   std::vector<size_t> lengths;
@@ -774,7 +775,7 @@ TEST_F(DamagedOtTest, TruncatedIsAnError) {
 }
 
 TEST_F(DamagedOtTest, BitFlipsAreErrorsOrValidTreesNeverCrashes) {
-  const std::string& ot = *ot_;
+  const std::string& ot = *room_ot;
   const size_t data = ot.find("\ndata\n") + 6;
   ASSERT_NE(data, std::string::npos);
   ASSERT_NE(ot.find("\nid ColorOcTree\n"), std::string::npos);
@@ -850,7 +851,7 @@ TEST_F(DamagedOtTest, GarbageIsAnError) {
                 .code(),
             StatusCode::kInvalidArgument);
   // The .bt form is not an .ot.
-  StatusOr<OccupancyMap> map = OccupancyMap::DeserializeOt(*ot_);
+  StatusOr<OccupancyMap> map = OccupancyMap::DeserializeOt(*room_ot);
   ASSERT_TRUE(map.ok());
   EXPECT_TRUE(IsDamageError(OccupancyMap::DeserializeOt(*map->SerializeBt()).status()));
 }
@@ -881,6 +882,7 @@ TEST(OccupancyMapMeasure, DISABLED_InsertionTimeAndMemory) {
               map->SerializeBt()->size());
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> all;
+  all.reserve(keyframes.size());
   for (const Keyframe& k : keyframes) all.emplace_back(&k.cloud, k.T_world_camera);
   ASSERT_TRUE(OccupancyMap::Build(all, {}).ok());
   std::printf(

@@ -47,7 +47,7 @@ KeyframeCloud CloudFromWorld(const std::vector<Eigen::Vector3d>& world,
   KeyframeCloud cloud;
   const Eigen::Isometry3d T_keyframe_world = T_world_keyframe.inverse();
   for (size_t i = 0; i < world.size(); ++i) {
-    cloud.points.push_back((T_keyframe_world * world[i]).cast<float>());
+    cloud.points.emplace_back((T_keyframe_world * world[i]).cast<float>());
     cloud.colours.push_back({rgb[i][2], rgb[i][1], rgb[i][0]});  // BGR
   }
   return cloud;
@@ -86,7 +86,7 @@ const CloudPoint* Nearest(const PointCloudMap& map, const Eigen::Vector3d& p, do
 
 std::string WriteFile(const testing::TempDir& dir, const std::string& name,
                       const std::string& bytes) {
-  const std::string path = dir.File(name);
+  std::string path = dir.File(name);
   std::ofstream out(path, std::ios::binary);
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   return path;
@@ -129,6 +129,7 @@ TEST(PointCloudMapTest, WorldPointsWhereExpected) {
     for (int k = 1; k < 4; ++k) world.emplace_back((i + 0.5) * 0.1, 0.01, k * 0.1 + 0.01);
   }
   std::vector<std::array<uint8_t, 3>> rgb;
+  rgb.reserve(world.size());
   for (const Eigen::Vector3d& p : world) rgb.push_back(ColourOf(p));
   const Eigen::Isometry3d T_world_keyframe = Pose(0.7, -0.3, {1.0, -2.0, 1.5});
   const KeyframeCloud cloud = CloudFromWorld(world, T_world_keyframe, rgb);
@@ -262,6 +263,7 @@ TEST(PointCloudMapTest, MovedPosesMoveTheCloudRigidly) {
     for (int k = 1; k < 5; ++k) world.emplace_back((i + 0.5) * leaf, 0.025, (k + 0.5) * leaf);
   }
   std::vector<std::array<uint8_t, 3>> rgb;
+  rgb.reserve(world.size());
   for (const Eigen::Vector3d& p : world) rgb.push_back(ColourOf(p));
   const Eigen::Isometry3d T_world_k = Pose(-0.4, 0.6, {0.3, 0.1, 1.4});
   const KeyframeCloud cloud = CloudFromWorld(world, T_world_k, rgb);

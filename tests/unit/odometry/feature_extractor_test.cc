@@ -33,8 +33,8 @@ TEST(FeatureExtractorTest, KeypointsSpreadOverTheGrid) {
   EXPECT_LE(f.size(), 1000u);
   std::vector<int> per_cell(48, 0);
   for (const cv::KeyPoint& k : f.keypoints) {
-    ++per_cell[static_cast<size_t>(static_cast<int>(k.pt.y / 80) * 8 +
-                                   static_cast<int>(k.pt.x / 80))];
+    const int cell = static_cast<int>(k.pt.y / 80) * 8 + static_cast<int>(k.pt.x / 80);
+    ++per_cell[static_cast<size_t>(cell)];
   }
   const int occupied = static_cast<int>(
       std::count_if(per_cell.begin(), per_cell.end(), [](int n) { return n > 0; }));
@@ -169,8 +169,12 @@ TEST(FeatureExtractorTest, RejectsBadOptionsAndInput) {
 TEST(BucketKeypointsTest, EqualSharesFirstThenStrongest) {
   std::vector<cv::KeyPoint> k;
   // 100 strong keypoints crowded in the top-left cell, 3 weak ones in the bottom-right.
-  for (int i = 0; i < 100; ++i)
-    k.emplace_back(cv::Point2f(1.0f + i % 10, 1.0f + i / 10), 7, -1, 100.0f + i);
+  k.reserve(100);
+  for (int i = 0; i < 100; ++i) {
+    const int column = i % 10, row = i / 10;  // a 10 x 10 grid of points one pixel apart
+    k.emplace_back(cv::Point2f(1.0f + static_cast<float>(column), 1.0f + static_cast<float>(row)),
+                   7, -1, 100.0f + i);
+  }
   for (int i = 0; i < 3; ++i) k.emplace_back(cv::Point2f(95.0f, 95.0f - i), 7, -1, 1.0f);
   const std::vector<cv::KeyPoint> out = BucketKeypoints(k, 100, 100, 2, 2, 20);
   ASSERT_EQ(out.size(), 20u);

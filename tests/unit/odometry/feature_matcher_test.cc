@@ -198,8 +198,8 @@ std::vector<cv::DMatch> MatchGuided(const cv::Mat& query,
   for (size_t j = 0; j < train_keypoints.size(); ++j) {
     const cv::Point2f& p = train_keypoints[j].pt;
     if (!(p.x >= 0 && p.y >= 0)) continue;
-    grid[static_cast<size_t>(static_cast<int>(p.y / cell) * cols + static_cast<int>(p.x / cell))]
-        .push_back(static_cast<int>(j));
+    const int index = static_cast<int>(p.y / cell) * cols + static_cast<int>(p.x / cell);
+    grid[static_cast<size_t>(index)].push_back(static_cast<int>(j));
   }
   const float r2 = cell * cell;
   std::vector<Best> query_best(static_cast<size_t>(query.rows));
@@ -211,7 +211,8 @@ std::vector<cv::DMatch> MatchGuided(const cv::Mat& query,
     const int gy = static_cast<int>(std::floor(p->y / cell));
     for (int y = std::max(0, gy - 1); y <= std::min(rows - 1, gy + 1); ++y) {
       for (int x = std::max(0, gx - 1); x <= std::min(cols - 1, gx + 1); ++x) {
-        for (int j : grid[static_cast<size_t>(y * cols + x)]) {
+        const int index = y * cols + x;
+        for (int j : grid[static_cast<size_t>(index)]) {
           const cv::Point2f d = train_keypoints[static_cast<size_t>(j)].pt - *p;
           if (d.x * d.x + d.y * d.y > r2) continue;
           const float dist = binary ? static_cast<float>(cv::hal::normHamming(

@@ -103,7 +103,7 @@ TEST(LocalMapTest, FusesDepthObservationsAndFollowsACorrection) {
   T_w_a.translation() = Eigen::Vector3d(-0.5, 0, 0);
   T_w_b.translation() = Eigen::Vector3d(2.1, 0, 2.0);  // 2 m to the side, looking along -x
   T_w_b.linear() = Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  const auto Frame = [&](const Eigen::Isometry3d& T_w_c, double depth_error) {
+  const auto frame = [&](const Eigen::Isometry3d& T_w_c, double depth_error) {
     FrameFeatures f;
     Eigen::Vector3d p = T_w_c.inverse() * X;
     p *= (p.z() + depth_error) / p.z();  // along the ray
@@ -114,10 +114,10 @@ TEST(LocalMapTest, FusesDepthObservationsAndFollowsACorrection) {
     f.has_depth.push_back(true);
     return f;
   };
-  map.AddKeyframe(0, Frame(T_w_a, 0.02), T_w_a, {});
+  map.AddKeyframe(0, frame(T_w_a, 0.02), T_w_a, {});
   ASSERT_EQ(map.size(), 1u);
   const double first_error = (map.point(0).position_world - X).norm();
-  map.AddKeyframe(1, Frame(T_w_b, 0.02), T_w_b, {0});
+  map.AddKeyframe(1, frame(T_w_b, 0.02), T_w_b, {0});
   ASSERT_EQ(map.size(), 1u);
   EXPECT_EQ(map.point(0).num_depth_observations, 2);
   // The rays cross at ~70 degrees: each view's precise bearing fixes the other's depth.

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <numeric>
 #include <opencv2/imgcodecs.hpp>
+#include <utility>
 #include <vector>
 
 #include "client/datasets/dataset.h"
@@ -239,7 +240,7 @@ class Feeder {
  public:
   Feeder(const CameraCalibration& camera, const synth::Renderer& renderer,
          RgbdTrackerOptions options)
-      : camera_(camera), renderer_(renderer), tracker_(MakeTracker(camera, options)) {}
+      : camera_(camera), renderer_(renderer), tracker_(MakeTracker(camera, std::move(options))) {}
 
   TrackingResult Pose(const Eigen::Isometry3d& T_world_camera, bool with_depth = true) {
     const synth::RenderedFrame f = renderer_.Render(T_world_camera);

@@ -113,7 +113,7 @@ TEST_F(IngestManagerTest, OpenMapsAreLimitedAndIdleOnesAreEvictedThenRestored) {
   Stream c2 = Open(manager, "c", 2);
   ASSERT_TRUE(c2.sink->WaitForAcks(2));
   {
-    std::lock_guard lock(c2.sink->mutex_);
+    std::lock_guard lock(c2.sink->mutex);
     ASSERT_FALSE(c2.sink->final_status.has_value()) << c2.sink->final_status->ToString();
     EXPECT_EQ(c2.sink->acks.size(), 2u);
   }
@@ -207,7 +207,7 @@ TEST_F(IngestManagerTest, AServerStopMidSessionFinishesAndDestroysEverySession) 
   manager->Join();  // returns once every session finished and was destroyed
   EXPECT_EQ(manager->owned_sessions(), 0u);
   for (Stream& s : streams) {
-    std::lock_guard lock(s.sink->mutex_);
+    std::lock_guard lock(s.sink->mutex);
     ASSERT_TRUE(s.sink->final_status.has_value());
     EXPECT_EQ(s.sink->final_status->code(), StatusCode::kUnavailable);
     IngestMessage late = IngestEnd{};

@@ -84,9 +84,9 @@ class IngestSessionTest : public ::testing::Test {
 TEST_F(IngestSessionTest, StoresFramesAndReportsDurableSeq) {
   std::unique_ptr<IngestSession> session = StartSession();
   std::vector<IngestMessage> messages;
-  messages.push_back(Start("a"));
-  for (int i = 0; i < 10; ++i) messages.push_back(Frame(i, 0.06 * i));
-  messages.push_back(IngestEnd{});
+  messages.emplace_back(Start("a"));
+  for (int i = 0; i < 10; ++i) messages.emplace_back(Frame(i, 0.06 * i));
+  messages.emplace_back(IngestEnd{});
   Feed(*session, std::move(messages));
   ASSERT_TRUE(sink_->Wait().ok()) << sink_->final_status->ToString();
   ASSERT_TRUE(sink_->started.has_value());

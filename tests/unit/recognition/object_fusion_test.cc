@@ -80,6 +80,7 @@ TEST(ObjectFusionTest, FarApartAreTwoInstancesAndTypesNeverMix) {
 
 TEST(ObjectFusionTest, AnOutlierNeitherMovesTheInstanceNorIsLost) {
   std::vector<WorldObjectObservation> obs;
+  obs.reserve(6);
   for (int i = 0; i < 6; ++i) {
     obs.push_back(Obs(1, {1.0 + 0.004 * (i - 2.5), 2.0, 1.0 + 0.003 * (i % 2)}, 30 + i, i));
   }
@@ -183,6 +184,7 @@ TEST(ObjectFusionTest, ALapFusesIntoOneInstancePerObjectAtItsFaceCentre) {
   StatusOr<std::vector<StampedPose>> poses = synth::CircleTrajectory(Room().room, t);
   ASSERT_TRUE(poses.ok());
   std::vector<Keyframe> kfs;
+  kfs.reserve(72);
   for (int k = 0; k < 72; ++k)
     kfs.push_back(MakeKeyframe((*poses)[static_cast<size_t>(k)].T_world_camera));
   std::vector<WorldObjectObservation> obs;

@@ -23,7 +23,7 @@ std::vector<Eigen::Vector3d> QuarterFace(int rows, int cols, Eigen::Vector3d* ce
     for (int j = 0; j < cols; ++j) {
       const double a = cols > 1 ? -0.15 + 0.15 * j / (cols - 1) : -0.075;
       const double b = rows > 1 ? -0.1 + 0.1 * i / (rows - 1) : -0.05;
-      out.push_back(c + a * u + b * v);
+      out.emplace_back(c + a * u + b * v);
     }
   }
   *centre = c;
@@ -34,7 +34,7 @@ TEST(ObjectPositionTest, PlaneCentreEvenWhenFeaturesClusterOnOneSide) {
   Eigen::Vector3d centre;
   std::vector<Eigen::Vector3d> points = QuarterFace(5, 6, &centre);
   // Three background points 40 cm behind (an edge's depth from the wall).
-  for (int i = 0; i < 3; ++i) points.push_back(points[static_cast<size_t>(i)] * (1.9 / 1.5));
+  for (int i = 0; i < 3; ++i) points.emplace_back(points[static_cast<size_t>(i)] * (1.9 / 1.5));
   const ObjectPosition p =
       EstimateObjectPosition(points, Eigen::Vector3d::UnitZ(), ObjectRecognitionOptions());
   EXPECT_EQ(p.source, PositionSource::kPlane);

@@ -46,6 +46,7 @@ TEST(RecognitionCostTest, PerKeyframeVersusObjectTypes) {
   StatusOr<std::vector<StampedPose>> poses = synth::CircleTrajectory(Room().room, t);
   ASSERT_TRUE(poses.ok());
   std::vector<Keyframe> kfs;
+  kfs.reserve(24);
   for (int k = 0; k < 24; ++k)
     kfs.push_back(MakeKeyframe((*poses)[static_cast<size_t>(k)].T_world_camera));
   size_t kf_features = 0;

@@ -16,7 +16,8 @@
 namespace semmap {
 namespace {
 
-std::string Encode(const cv::Mat& image, const std::string& ext, std::vector<int> params = {}) {
+std::string Encode(const cv::Mat& image, const std::string& ext,
+                   const std::vector<int>& params = {}) {
   std::vector<uchar> buf;
   EXPECT_TRUE(cv::imencode(ext, image, buf, params));
   return std::string(buf.begin(), buf.end());

@@ -58,6 +58,7 @@ BowTrainingOptions Options(int k, int levels, uint64_t seed = 1) {
 std::vector<cv::Mat> RandomSets(int sets, int rows, uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::vector<cv::Mat> out;
+  out.reserve(sets);
   for (int i = 0; i < sets; ++i) out.push_back(RandomDescriptors(rows, rng));
   return out;
 }
@@ -130,7 +131,7 @@ TEST(BowVocabularyTrainTest, RejectsBadInput) {
   EXPECT_EQ(BowVocabulary::Train({cv::Mat(), cv::Mat()}, Options(10, 3)).status().code(),
             StatusCode::kInvalidArgument);
   std::vector<cv::Mat> mixed = sets;
-  mixed.push_back(cv::Mat(3, 16, CV_8UC1, cv::Scalar(0)));
+  mixed.emplace_back(3, 16, CV_8UC1, cv::Scalar(0));
   EXPECT_EQ(BowVocabulary::Train(mixed, Options(10, 3)).status().code(),
             StatusCode::kInvalidArgument);
   EXPECT_EQ(BowVocabulary::Train({cv::Mat(3, 32, CV_32FC1)}, Options(10, 3)).status().code(),

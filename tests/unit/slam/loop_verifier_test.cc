@@ -43,6 +43,7 @@ Eigen::Isometry3d RoomPose(double x, double y, double yaw_deg) {
 
 std::vector<const FrameFeatures*> Pointers(const std::vector<FrameFeatures>& f) {
   std::vector<const FrameFeatures*> p;
+  p.reserve(f.size());
   for (const FrameFeatures& x : f) p.push_back(&x);
   return p;
 }
@@ -135,22 +136,22 @@ void ExpectNear(const Eigen::Isometry3d& estimated, const Eigen::Isometry3d& tru
 
 TEST(LoopVerifierOptionsTest, DefaultsAreValidAndBadValuesAreRejected) {
   EXPECT_TRUE(LoopVerifierOptions{}.Validate().ok());
-  const auto Bad = [](auto mutate) {
+  const auto bad = [](auto mutate) {
     LoopVerifierOptions o;
     mutate(o);
     return o.Validate().code() == StatusCode::kInvalidArgument;
   };
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  EXPECT_TRUE(Bad([](LoopVerifierOptions& o) { o.min_inliers = o.motion.min_inliers - 1; }));
-  EXPECT_TRUE(Bad([](LoopVerifierOptions& o) { o.max_rms_px = 0; }));
-  EXPECT_TRUE(Bad([&](LoopVerifierOptions& o) { o.max_rms_px = nan; }));
-  EXPECT_TRUE(Bad([](LoopVerifierOptions& o) { o.min_inlier_ratio = -0.1; }));
-  EXPECT_TRUE(Bad([](LoopVerifierOptions& o) { o.min_inlier_ratio = 1.1; }));
-  EXPECT_TRUE(Bad([](LoopVerifierOptions& o) { o.max_xi = 0; }));
-  EXPECT_TRUE(Bad([&](LoopVerifierOptions& o) { o.max_xi = inf; }));
-  EXPECT_TRUE(Bad([](LoopVerifierOptions& o) { o.matcher.ratio = 0; }));
-  EXPECT_TRUE(Bad([](LoopVerifierOptions& o) { o.motion.ransac_iterations = 0; }));
+  EXPECT_TRUE(bad([](LoopVerifierOptions& o) { o.min_inliers = o.motion.min_inliers - 1; }));
+  EXPECT_TRUE(bad([](LoopVerifierOptions& o) { o.max_rms_px = 0; }));
+  EXPECT_TRUE(bad([&](LoopVerifierOptions& o) { o.max_rms_px = nan; }));
+  EXPECT_TRUE(bad([](LoopVerifierOptions& o) { o.min_inlier_ratio = -0.1; }));
+  EXPECT_TRUE(bad([](LoopVerifierOptions& o) { o.min_inlier_ratio = 1.1; }));
+  EXPECT_TRUE(bad([](LoopVerifierOptions& o) { o.max_xi = 0; }));
+  EXPECT_TRUE(bad([&](LoopVerifierOptions& o) { o.max_xi = inf; }));
+  EXPECT_TRUE(bad([](LoopVerifierOptions& o) { o.matcher.ratio = 0; }));
+  EXPECT_TRUE(bad([](LoopVerifierOptions& o) { o.motion.ransac_iterations = 0; }));
   // Bad options are an error of the call, before anything is matched.
   LoopVerifierOptions o;
   o.max_xi = -1;
@@ -221,19 +222,19 @@ TEST(LoopVerifierTest, RejectsInconsistentInputs) {
   const CameraCalibration camera = synth::DefaultSyntheticCamera();
   const FrameFeatures orb = HandMade(5, CV_8UC1, 32);
   const FrameFeatures sift = HandMade(5, CV_32FC1, 128);
-  const auto Code = [&](const FrameFeatures& q, const FrameFeatures& c,
+  const auto code = [&](const FrameFeatures& q, const FrameFeatures& c,
                         const std::vector<const FrameFeatures*>& n) {
     return VerifyLoopCandidate(q, c, n, camera, {}).status().code();
   };
-  EXPECT_EQ(Code(orb, sift, {&orb}), StatusCode::kInvalidArgument);
-  EXPECT_EQ(Code(orb, orb, {&sift}), StatusCode::kInvalidArgument);  // even though N_c fails
-  EXPECT_EQ(Code(orb, orb, {nullptr}), StatusCode::kInvalidArgument);
+  EXPECT_EQ(code(orb, sift, {&orb}), StatusCode::kInvalidArgument);
+  EXPECT_EQ(code(orb, orb, {&sift}), StatusCode::kInvalidArgument);  // even though N_c fails
+  EXPECT_EQ(code(orb, orb, {nullptr}), StatusCode::kInvalidArgument);
   FrameFeatures short_points = orb;
   short_points.points_camera.pop_back();
-  EXPECT_EQ(Code(orb, short_points, {&orb}), StatusCode::kInvalidArgument);
+  EXPECT_EQ(code(orb, short_points, {&orb}), StatusCode::kInvalidArgument);
   FrameFeatures no_depth_flags = orb;
   no_depth_flags.has_depth.clear();
-  EXPECT_EQ(Code(no_depth_flags, orb, {&orb}), StatusCode::kInvalidArgument);
+  EXPECT_EQ(code(no_depth_flags, orb, {&orb}), StatusCode::kInvalidArgument);
   CameraCalibration bad_camera = camera;
   bad_camera.fx = 0;
   EXPECT_EQ(VerifyLoopCandidate(orb, orb, {&orb}, bad_camera, {}).status().code(),
@@ -367,7 +368,7 @@ TEST(LoopVerifierTest, PerceptualAliasIsCaughtOnlyWhenItsNeighboursMissTheAlias)
   const AliasScene& a = Alias();
   const synth::Renderer& renderer = AliasRenderer();
   const FrameFeatures query = Features(renderer, PosterView(a.poster_a, 0.05, 1.5, 3));
-  const auto Around = [&](const synth::Surface& poster, double step_m, double step_deg) {
+  const auto around = [&](const synth::Surface& poster, double step_m, double step_deg) {
     std::vector<FrameFeatures> n;
     for (int s : {-1, 1}) {
       n.push_back(Features(renderer, PosterView(poster, s * step_m, 1.5, s * step_deg)));
@@ -377,18 +378,18 @@ TEST(LoopVerifierTest, PerceptualAliasIsCaughtOnlyWhenItsNeighboursMissTheAlias)
   const FrameFeatures true_candidate = Features(renderer, PosterView(a.poster_a, 0, 1.5, 0));
   const FrameFeatures alias = Features(renderer, PosterView(a.poster_b, 0, 1.5, 0));
 
-  const LoopVerification truth = Verify(query, true_candidate, Around(a.poster_a, 0.1, 5));
+  const LoopVerification truth = Verify(query, true_candidate, around(a.poster_a, 0.1, 5));
   EXPECT_EQ(truth.decision, LoopDecision::kAccepted) << LoopDecisionName(truth.decision);
   EXPECT_LE(truth.xi, 1.25);
 
-  const LoopVerification shared = Verify(query, alias, Around(a.poster_b, 0.1, 5));
+  const LoopVerification shared = Verify(query, alias, around(a.poster_b, 0.1, 5));
   EXPECT_GE(shared.candidate_inliers, 40);
   EXPECT_LT(shared.candidate_inliers, truth.candidate_inliers / 2);
   EXPECT_NEAR(shared.xi, truth.xi, 0.25);
   EXPECT_EQ(shared.decision, LoopDecision::kAccepted)
       << "xi now rejects an alias its neighbours share; update this test and the header";
 
-  const LoopVerification lonely = Verify(query, alias, Around(a.poster_b, 0.0, 45));
+  const LoopVerification lonely = Verify(query, alias, around(a.poster_b, 0.0, 45));
   EXPECT_EQ(lonely.decision, LoopDecision::kXiTooHigh) << LoopDecisionName(lonely.decision);
   EXPECT_EQ(lonely.candidate_inliers, shared.candidate_inliers);
 }

@@ -435,6 +435,7 @@ TEST_F(ObjectStoreTest, FindFiltersOrdersAndNamesSessions) {
 
   auto key = [](const std::vector<ObjectInstance>& found) {
     std::vector<std::string> keys;
+    keys.reserve(found.size());
     for (const ObjectInstance& o : found) {
       keys.push_back(o.map_name + "/" + o.label + "/" + std::to_string(o.confidence).substr(0, 3));
     }
@@ -658,8 +659,11 @@ TEST(WriteBatchAppendTest, ObservationsConcatenateAndLaterInstancesWin) {
   b.instances.emplace_back(3, std::vector<ObjectInstance>{});
   merged.Append(std::move(a));
   merged.Append(std::move(b));
+  // What Append leaves behind in its argument is part of its contract.
+  // NOLINTBEGIN(bugprone-use-after-move)
   EXPECT_TRUE(b.observations.empty());
   EXPECT_TRUE(b.instances.empty());
+  // NOLINTEND(bugprone-use-after-move)
   ASSERT_EQ(merged.observations.size(), 3u);
   EXPECT_EQ(merged.observations[2].seq, 7);
   ASSERT_EQ(merged.instances.size(), 3u);

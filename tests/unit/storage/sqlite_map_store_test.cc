@@ -562,7 +562,7 @@ TEST_F(SqliteMapStoreTest, InvalidLinksFailTheBatch) {
   setup.keyframes = {Keyframe(s.id, 0), Keyframe(other.id, 0)};
   const WriteResult ids = Write(setup);
 
-  auto try_link = [&](LinkRecord link) {
+  auto try_link = [&](const LinkRecord& link) {
     WriteBatch batch;
     batch.frames.emplace_back(s.id, FramePose(1));
     batch.links.push_back(link);
@@ -689,7 +689,7 @@ TEST_F(SqliteMapStoreTest, KeyframeFeaturesRoundTripAndAreOptional) {
   WriteBatch batch;
   KeyframeRecord with = Keyframe(s.id, 0);
   with.features_format = "semmap-features-v1";
-  with.features = std::string("\0\1binary\xff", 10);
+  with.features = std::string("\0\1binary\xff\0", 10);
   batch.keyframes = {with, Keyframe(s.id, 1)};
   const WriteResult written = Write(batch);
   auto read = store_->GetKeyframe(written.keyframe_ids.at(0));

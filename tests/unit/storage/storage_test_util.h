@@ -66,11 +66,11 @@ inline void ExpectPoseNear(const Eigen::Isometry3d& a, const Eigen::Isometry3d& 
 
 #define ASSERT_OK(expr)                                                  \
   do {                                                                   \
-    const ::semmap::Status assert_ok_status_ = (expr);                   \
+    const ::semmap::Status& assert_ok_status_ = (expr);                  \
     ASSERT_TRUE(assert_ok_status_.ok()) << assert_ok_status_.ToString(); \
   } while (false)
 #define EXPECT_OK(expr)                                                  \
   do {                                                                   \
-    const ::semmap::Status expect_ok_status_ = (expr);                   \
+    const ::semmap::Status& expect_ok_status_ = (expr);                  \
     EXPECT_TRUE(expect_ok_status_.ok()) << expect_ok_status_.ToString(); \
   } while (false)

@@ -101,11 +101,11 @@ class RecordingStore final : public MapStore {
     return inner_->GetBlob(id, kind);
   }
   Status Checkpoint() override {
-    ++checkpoints_;
+    ++checkpoints;
     return inner_->Checkpoint();
   }
 
-  std::atomic<int> checkpoints_{0};
+  std::atomic<int> checkpoints{0};
 
  private:
   std::unique_ptr<MapStore> inner_;
@@ -356,9 +356,9 @@ TEST_F(StorageWriterTest, StopDrainsEverythingAndCheckpoints) {
   ASSERT_OK(writer_->Stop());
   ASSERT_EQ(outcomes.size(), static_cast<size_t>(kBatches));
   for (const auto& [tag, status] : outcomes.calls) EXPECT_OK(status);
-  EXPECT_EQ(recording_->checkpoints_.load(), 1);
+  EXPECT_EQ(recording_->checkpoints.load(), 1);
   EXPECT_OK(writer_->Stop());  // idempotent
-  EXPECT_EQ(recording_->checkpoints_.load(), 1);
+  EXPECT_EQ(recording_->checkpoints.load(), 1);
   reader_.reset();
   auto reopened = SqliteMapStore::Open(path(), {});
   ASSERT_OK(reopened.status());

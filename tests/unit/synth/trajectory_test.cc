@@ -19,7 +19,7 @@ constexpr TrajectoryKind kAllKinds[] = {TrajectoryKind::kCircle, TrajectoryKind:
 constexpr TrajectoryKind kLoops[] = {TrajectoryKind::kCircle, TrajectoryKind::kFigureEight,
                                      TrajectoryKind::kCorridorLoop, TrajectoryKind::kPureRotation};
 
-std::vector<StampedPose> Make(TrajectoryKind kind, TrajectoryOptions options = {}) {
+std::vector<StampedPose> Make(TrajectoryKind kind, const TrajectoryOptions& options = {}) {
   StatusOr<std::vector<StampedPose>> poses = MakeTrajectory(kind, kRoom, options);
   EXPECT_TRUE(poses.ok()) << poses.status().ToString();
   return poses.ok() ? *poses : std::vector<StampedPose>{};
