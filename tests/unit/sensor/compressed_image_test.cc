@@ -110,7 +110,9 @@ TEST(CompressedImageTest, EveryTruncationIsRefused) {
     for (double fraction : {0.05, 0.25, 0.5, 0.75, 0.9, 0.99}) {
       const StatusOr<cv::Mat> cut = Decode(testing::Truncated(c.bytes, fraction), c.target);
       EXPECT_FALSE(cut.ok()) << fraction;
-      if (!cut.ok()) EXPECT_EQ(cut.status().code(), StatusCode::kInvalidArgument);
+      if (!cut.ok()) {
+        EXPECT_EQ(cut.status().code(), StatusCode::kInvalidArgument);
+      }
     }
     // Short by one byte: the PNG's IEND CRC, the JPEG's EOI marker.
     EXPECT_FALSE(Decode(c.bytes.substr(0, c.bytes.size() - 1), c.target).ok());
