@@ -1,6 +1,7 @@
 // The learned VO model's JSON sidecar (core/odometry/mono_vo_model): an operator's file read at
-// start. What parses is a usable description (a valid canonical camera, positive sizes, the
-// image input at the network's size); everything else is INVALID_ARGUMENT naming the sidecar.
+// start. What parses is a usable description (a valid canonical camera, positive sizes, a
+// recurrent state list, the image input at the network's size); everything else is INVALID_ARGUMENT
+// naming the sidecar.
 #include <cstdint>
 #include <string>
 
@@ -16,8 +17,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     return 0;
   }
   FUZZ_CHECK(info->camera.Validate().ok());
-  FUZZ_CHECK(info->hidden > 0);
-  FUZZ_CHECK(info->f2_shape.size() == 4 && info->f3_shape.size() == 4);
+  // The recurrent state: 1 to 16 entries, names set, shapes of 2 to 4 positive dimensions.
+  FUZZ_CHECK(!info->state.empty() && info->state.size() <= 16);
+  for (const MonoVoState& s : info->state) {
+    FUZZ_CHECK(!s.input.empty() && !s.output.empty());
+    FUZZ_CHECK(s.shape.size() >= 2 && s.shape.size() <= 4);
+    for (const int d : s.shape) FUZZ_CHECK(d > 0);
+  }
   for (const double s : info->stddev) FUZZ_CHECK(s > 0);
   FUZZ_CHECK(info->sha256.size() == 64);
   return 0;
