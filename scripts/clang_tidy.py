@@ -8,9 +8,9 @@ Usage: clang_tidy.py [--build-dir build/release] [--jobs N] [--no-cache] [--sinc
   paths: only files under these (default: every directory of ours but tests/fuzz)
   --since REV: only the files that changed since the git revision REV or include a header that
          did (from the build's ninja dependency records; every file when .clang-tidy, the top
-         CMakeLists.txt, CMakePresets.json or cmake/ changed). CI passes the commit recorded in .ci/tidy-baseline,
-         where the whole tree was last checked clean, so a cold CI machine does not re-check
-         every file (about 20 minutes on 2 cores).
+         CMakeLists.txt, CMakePresets.json or cmake/ changed, or REV is unknown). CI passes the
+         commit recorded in .ci/tidy-baseline, where the whole tree was last checked clean, so a
+         cold CI machine does not re-check every file (about 26 minutes on 2 cores).
 """
 import argparse
 import concurrent.futures
@@ -39,9 +39,14 @@ def find_clang_tidy() -> str:
     sys.exit("clang_tidy: clang-tidy not found (bash scripts/install-deps.sh lint)")
 
 
+def compile_args(entry: dict) -> list:
+    """A compile_commands.json entry's command line as a list."""
+    return shlex.split(entry["command"]) if "command" in entry else list(entry["arguments"])
+
+
 def cache_key(entry: dict, config: bytes) -> str:
     """sha256 of the preprocessed file (every header it includes), its flags and the config."""
-    args = shlex.split(entry["command"]) if "command" in entry else list(entry["arguments"])
+    args = compile_args(entry)
     # Drop the output so the same file preprocesses the same in any build directory.
     cleaned = []
     skip = False
@@ -97,7 +102,7 @@ def changed_since(rev: str):
 
 
 def object_of(entry: dict) -> str:
-    args = shlex.split(entry["command"]) if "command" in entry else list(entry["arguments"])
+    args = compile_args(entry)
     return args[args.index("-o") + 1] if "-o" in args[:-1] else ""
 
 

@@ -84,6 +84,7 @@ StatusOr<std::vector<MonoVoState>> StateList(const Json& root) {
   if (list == nullptr || !list->is_array() || list->empty() || list->size() > kMaxState) {
     return InvalidArgumentError("VO model sidecar: state must list 1 to 16 recurrent inputs");
   }
+  const Json* shapes = At(root, {"inputs"});
   std::vector<MonoVoState> state;
   std::set<std::string> names = {"image", "pose6", "depth"};
   for (const Json& entry : *list) {
@@ -111,11 +112,11 @@ StatusOr<std::vector<MonoVoState>> StateList(const Json& root) {
       }
       s.discard_first = first->get<std::string>() == "discard";
     }
-    const Json* shape = At(root, {"inputs"});
-    if (shape == nullptr || !shape->is_object() || !shape->contains(s.input)) {
+    if (shapes == nullptr || !shapes->is_object() || !shapes->contains(s.input)) {
       return InvalidArgumentError("VO model sidecar: inputs." + s.input + " is missing");
     }
-    const size_t dims = (*shape)[s.input].is_array() ? (*shape)[s.input].size() : 0;
+    const Json& shape = (*shapes)[s.input];
+    const size_t dims = shape.is_array() ? shape.size() : 0;
     if (dims < 2 || dims > 4) {
       return InvalidArgumentError("VO model sidecar: inputs." + s.input +
                                   " must be a shape of 2 to 4 sizes");
