@@ -112,17 +112,23 @@ def read_list(folder, name):
     return parse_list(_read_text(os.path.join(folder, name)))
 
 
+def nearest_pairs(a, b, max_dt=0.02):
+    """Index pairs (i, j): for each stamp a_i the nearest b_j, kept when |a_i - b_j| < max_dt."""
+    b = np.asarray(b, np.float64)
+    if b.size == 0:
+        return []
+    pairs = []
+    for i, t in enumerate(a):
+        j = int(np.argmin(np.abs(b - t)))
+        if abs(b[j] - t) < max_dt:
+            pairs.append((i, j))
+    return pairs
+
+
 def associate(rgb, depth, max_dt=0.02):
     """Nearest-stamp association of two sorted (stamp, path) lists -> [(stamp, rgb, depth)]."""
-    out = []
-    if not depth:
-        return out
-    ds = np.array([d[0] for d in depth])
-    for t, p in rgb:
-        j = int(np.argmin(np.abs(ds - t)))
-        if abs(ds[j] - t) < max_dt:
-            out.append((t, p, depth[j][1]))
-    return out
+    pairs = nearest_pairs([t for t, _ in rgb], [t for t, _ in depth], max_dt)
+    return [(rgb[i][0], rgb[i][1], depth[j][1]) for i, j in pairs]
 
 
 def decode_image(path, flags):

@@ -20,7 +20,8 @@ import cv2
 import numpy as np
 
 from . import config as C
-from .data import associate, canonical_coverage, parse_camera_yaml, parse_list, parse_spec, to_canonical_rgb
+from .data import (associate, canonical_coverage, nearest_pairs, normalise, parse_camera_yaml, parse_list,
+                   parse_spec, to_canonical_rgb)
 
 # ---------------------------------------------------------------------------------------------
 # rotations (numpy)
@@ -97,13 +98,8 @@ def write_tum_trajectory(path, stamps, poses):
 
 
 def associate_stamps(a, b, max_dt=0.02):
-    """Index pairs (i, j) with |a_i - b_j| < max_dt, nearest, one-to-one in order."""
-    pairs = []
-    for i, t in enumerate(a):
-        j = int(np.argmin(np.abs(b - t)))
-        if abs(b[j] - t) < max_dt:
-            pairs.append((i, j))
-    return pairs
+    """Index pairs (i, j): the nearest b_j to each a_i within max_dt (data.nearest_pairs)."""
+    return nearest_pairs(a, b, max_dt)
 
 
 def umeyama(src, dst, with_scale):
@@ -236,8 +232,7 @@ def canonical_input(bgr, cam):
     """Source BGR (or grey) image -> (1,3,H,W) normalised network input."""
     x = cv2.cvtColor(to_canonical_rgb(bgr, cam), cv2.COLOR_BGR2RGB).astype(np.float32) / 255.0
     x = x * canonical_coverage(cam)[:, :, None]
-    x = (x - np.array(C.MEAN, np.float32)) / np.array(C.STD, np.float32)
-    return np.ascontiguousarray(x.transpose(2, 0, 1)[None])
+    return np.ascontiguousarray(normalise(x.transpose(2, 0, 1))[None])
 
 
 def run_sequence(runner, folder, start=0, end=None, every=1):
