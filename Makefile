@@ -19,8 +19,12 @@ demo: build
 test: build
 	ctest --preset release -j 2
 
-# Unit and integration tests under AddressSanitizer + UndefinedBehaviorSanitizer (CI runs this).
-test-asan: deps
+# Unit and integration tests under AddressSanitizer + UndefinedBehaviorSanitizer (clang; CI runs
+# this). The same build holds the libFuzzer targets of `make fuzz`. The longest accuracy
+# evaluations (recognition laps, the 391-frame cafe sequence) run in `make test` only: their code
+# paths are the shorter tests' (CMakePresets.json, test preset asan).
+test-asan:
+	bash scripts/install-deps.sh fuzz
 	cmake --preset asan
 	cmake --build --preset asan -j $(JOBS)
 	ctest --preset asan -j 2
@@ -54,8 +58,9 @@ test-tsan:
 	cmake --build --preset tsan -j $(JOBS)
 	ctest --preset tsan -j 2
 
-# libFuzzer targets (clang, ASan + UBSan) over the parsers of outside bytes, FUZZ_SECONDS each
-# (CI runs this too); fails on a crash and prints the input and how to reproduce it.
+# libFuzzer targets (clang, ASan + UBSan; built in build/asan) over the parsers of outside bytes,
+# FUZZ_SECONDS each (CI runs this too); fails on a crash and prints the input and how to
+# reproduce it.
 FUZZ_SECONDS ?= 30
 fuzz:
 	bash scripts/install-deps.sh fuzz
@@ -68,6 +73,7 @@ bench: build
 	build/release/bench/eval_bench
 	build/release/bench/synth_bench
 	build/release/bench/tracking_bench
+	build/release/bench/recognition_cost_bench
 	build/release/bench/matcher_bench
 	build/release/bench/place_recognition_bench
 	build/release/bench/object_query_bench

@@ -18,6 +18,13 @@ inline double MillisecondsSince(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
+// |a - b| in nanoseconds, exact for any two stamps (their signed difference could overflow:
+// stamps may be anywhere in the int64 range).
+constexpr uint64_t StampDistanceNs(int64_t a, int64_t b) {
+  return a > b ? static_cast<uint64_t>(a) - static_cast<uint64_t>(b)
+               : static_cast<uint64_t>(b) - static_cast<uint64_t>(a);
+}
+
 // Seconds with microsecond digits, as TUM files write stamps ("1341841873.273798").
 std::string FormatStampSeconds(int64_t stamp_ns);
 // Parses "1341841873.273798" exactly (no double rounding); false on malformed text.

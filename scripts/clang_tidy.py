@@ -3,6 +3,9 @@
 compile_commands.json, in parallel, with a cache: a file whose preprocessed text, compile flags
 and .clang-tidy are unchanged since it last came out clean is not checked again (CI reruns are
 cheap; any header change re-checks what includes it). Exit 1 when any file has a finding.
+A unity build lists its batches (Unity/unity_N_cxx.cxx) instead of the sources: each batch is
+checked as the sources it includes, each with the batch's flags (the database clang-tidy reads
+is written to <build>/clang-tidy/compile_commands.json).
 
 Usage: clang_tidy.py [--build-dir build/release] [--jobs N] [--no-cache] [--since REV] [paths...]
   paths: only files under these (default: every directory of ours but tests/fuzz)
@@ -18,6 +21,7 @@ import hashlib
 import json
 import os
 import pathlib
+import re
 import shlex
 import subprocess
 import sys
@@ -42,6 +46,26 @@ def find_clang_tidy() -> str:
 def compile_args(entry: dict) -> list:
     """A compile_commands.json entry's command line as a list."""
     return shlex.split(entry["command"]) if "command" in entry else list(entry["arguments"])
+
+
+UNITY_INCLUDE = re.compile(r'^#include "(.+)"$', re.MULTILINE)
+
+
+def expand_unity(entries: list) -> list:
+    """One entry per source of each unity batch: the batch's command with the source in its place
+    and the batch's object as output (its ninja records name every header of the batch)."""
+    expanded = []
+    for entry in entries:
+        batch = pathlib.Path(entry["directory"], entry["file"])
+        if batch.parent.name != "Unity" or not batch.name.startswith("unity_"):
+            expanded.append(entry)
+            continue
+        args = compile_args(entry)
+        output = entry.get("output") or object_of(entry)
+        for source in UNITY_INCLUDE.findall(batch.read_text()):
+            expanded.append({"directory": entry["directory"], "file": source, "output": output,
+                             "arguments": [source if a == entry["file"] else a for a in args]})
+    return expanded
 
 
 def cache_key(entry: dict, config: bytes) -> str:
@@ -69,14 +93,14 @@ def cache_key(entry: dict, config: bytes) -> str:
     return digest.hexdigest()
 
 
-def check(tidy: str, build_dir: str, entry: dict, config: bytes, use_cache: bool):
+def check(tidy: str, database_dir: str, entry: dict, config: bytes, use_cache: bool):
     path = entry["file"]
     key = cache_key(entry, config) if use_cache else None
     if key and (CACHE_DIR / key).exists():
         return path, "", True
     # The build's flags are gcc's (-Wshadow=local, -Wno-error=restrict under -Werror): clang
     # must not turn the options it does not know into findings.
-    result = subprocess.run([tidy, "-p", build_dir, "--quiet",
+    result = subprocess.run([tidy, "-p", database_dir, "--quiet",
                              "--extra-arg=-Wno-unknown-warning-option", path],
                             capture_output=True, text=True, check=False)
     findings = "\n".join(line for line in result.stdout.splitlines()
@@ -126,7 +150,9 @@ def affected(entries: list, build_dir: str, changed: set) -> list:
             target = line.split(":", 1)[0]
             headers_of[target] = set()
         elif line.strip() and target is not None:
-            headers_of[target].add(str((pathlib.Path(build_dir) / line.strip()).resolve()))
+            dep = line.strip()
+            if not dep.endswith((".cc", ".cxx")):  # a unity batch's other sources are not headers
+                headers_of[target].add(str((pathlib.Path(build_dir) / dep).resolve()))
     selected = []
     for entry in entries:
         source = str(pathlib.Path(entry["file"]).resolve())
@@ -148,7 +174,7 @@ def main() -> int:
     if not database.exists():
         sys.exit(f"clang_tidy: {database} is missing (configure the build first)")
     prefixes = [str((ROOT / p).resolve()) for p in (args.paths or DEFAULT_DIRS)]
-    entries = [e for e in json.loads(database.read_text())
+    entries = [e for e in expand_unity(json.loads(database.read_text()))
                if any(str(pathlib.Path(e["file"]).resolve()).startswith(p + os.sep) or
                       str(pathlib.Path(e["file"]).resolve()) == p for p in prefixes)
                and "/tests/fuzz/" not in e["file"]]
@@ -162,12 +188,16 @@ def main() -> int:
             entries = affected(entries, args.build_dir, changed)
         print(f"clang_tidy: {len(entries)} of {total} files affected by changes since "
               f"{args.since}", file=sys.stderr)
+    database_dir = pathlib.Path(args.build_dir) / "clang-tidy"
+    database_dir.mkdir(exist_ok=True)
+    (database_dir / "compile_commands.json").write_text(
+        json.dumps(expand_unity(json.loads(database.read_text())), indent=1))
     config = (ROOT / ".clang-tidy").read_bytes()
     tidy = find_clang_tidy()
     start = time.monotonic()
     failed, cached, done = [], 0, 0
     with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
-        futures = [pool.submit(check, tidy, args.build_dir, e, config, not args.no_cache)
+        futures = [pool.submit(check, tidy, str(database_dir), e, config, not args.no_cache)
                    for e in entries]
         for future in concurrent.futures.as_completed(futures):
             path, output, was_cached = future.result()

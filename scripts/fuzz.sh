@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (preset fuzz: clang, ASan + UBSan), makes their seed corpora
+# Builds the libFuzzer targets (preset asan: clang, ASan + UBSan), makes their seed corpora
 # (tests/fuzz/seed_corpus.sh), runs each target once over the full-size real files, then
 # fuzzes it for a while on its work corpus, build/fuzz/corpus/<target> (kept between runs, so
 # later runs start where earlier ones stopped) plus the seeds.
@@ -36,16 +36,19 @@ if ! [[ "$seconds" =~ ^[1-9][0-9]*$ && "$jobs" =~ ^[1-9][0-9]*$ ]]; then
   echo "fuzz: --seconds and --jobs take positive integers" >&2
   exit 2
 fi
+# The binaries come from the asan build (shared with the sanitizer tests); the corpora, crash
+# inputs and logs live in build/fuzz.
+asan_dir=$root/build/asan
+bin_dir=$asan_dir/tests/fuzz
 build_dir=$root/build/fuzz
-bin_dir=$build_dir/tests/fuzz
 if [ $build -eq 1 ]; then
-  cmake --preset fuzz >/dev/null
-  cmake --build --preset fuzz --target fuzz_all -j "${BUILD_JOBS:-$(nproc)}"
+  cmake --preset asan >/dev/null
+  cmake --build --preset asan --target fuzz_all -j "${BUILD_JOBS:-$(nproc)}"
 fi
 # Default: every target tests/fuzz/CMakeLists.txt registers (the configure step lists them).
 if [ ${#targets[@]} -eq 0 ]; then
-  if [ -f "$build_dir/fuzz_targets.txt" ]; then
-    while read -r name; do [ -n "$name" ] && targets+=("$name"); done <"$build_dir/fuzz_targets.txt"
+  if [ -f "$asan_dir/fuzz_targets.txt" ]; then
+    while read -r name; do [ -n "$name" ] && targets+=("$name"); done <"$asan_dir/fuzz_targets.txt"
   else
     for f in "$bin_dir"/fuzz_*; do
       name=$(basename "$f")
@@ -60,6 +63,7 @@ for t in "${targets[@]}"; do
   fi
 done
 
+mkdir -p "$build_dir"
 seeds=$build_dir/seeds
 rm -rf "$seeds"
 FUZZ_MAKE_SEEDS=$bin_dir/fuzz_make_seeds bash tests/fuzz/seed_corpus.sh "$seeds" >/dev/null

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package semmap needs to build, test and run.
 # Idempotent: when everything is present it only runs dpkg-query and exits.
-# `install-deps.sh fuzz` adds clang and libFuzzer for scripts/fuzz.sh (make fuzz).
+# `install-deps.sh fuzz` adds clang with its sanitizer runtimes and libFuzzer (make test-asan,
+# test-tsan, fuzz).
 # `install-deps.sh train` adds PyTorch (CPU), OpenCV for Python, pytest and matplotlib for training/
 # (make train-vo, make train-smoke).
 set -euo pipefail

@@ -5,17 +5,12 @@
 #include <iterator>
 
 #include "common/pose.h"
+#include "common/time_util.h"
 
 namespace semmap {
 namespace {
 
 bool EarlierStamp(const StampedPose& a, const StampedPose& b) { return a.stamp_ns < b.stamp_ns; }
-
-// hi - lo for lo <= hi, exact over the whole int64 range (the signed difference of stamps
-// 9e18 ns apart would overflow).
-uint64_t Distance(int64_t lo, int64_t hi) {
-  return static_cast<uint64_t>(hi) - static_cast<uint64_t>(lo);
-}
 
 // Whether a distance exceeds a limit (a negative limit allows nothing but 0).
 bool Beyond(uint64_t distance, int64_t limit) {
@@ -39,22 +34,22 @@ std::optional<Eigen::Isometry3d> PoseLookup::At(int64_t stamp_ns) const {
                        [](const StampedPose& p, int64_t stamp) { return p.stamp_ns < stamp; });
   if (after != poses_.end() && after->stamp_ns == stamp_ns) return after->T_world_camera;
   if (after == poses_.begin()) {
-    if (Beyond(Distance(stamp_ns, after->stamp_ns), options_.max_extrapolation_ns)) {
+    if (Beyond(StampDistanceNs(stamp_ns, after->stamp_ns), options_.max_extrapolation_ns)) {
       return std::nullopt;
     }
     return after->T_world_camera;
   }
   const auto before = std::prev(after);
   if (after == poses_.end()) {
-    if (Beyond(Distance(before->stamp_ns, stamp_ns), options_.max_extrapolation_ns)) {
+    if (Beyond(StampDistanceNs(before->stamp_ns, stamp_ns), options_.max_extrapolation_ns)) {
       return std::nullopt;
     }
     return before->T_world_camera;
   }
-  const uint64_t gap = Distance(before->stamp_ns, after->stamp_ns);
+  const uint64_t gap = StampDistanceNs(before->stamp_ns, after->stamp_ns);
   if (Beyond(gap, options_.max_interp_gap_ns)) return std::nullopt;
   const double alpha =
-      static_cast<double>(Distance(before->stamp_ns, stamp_ns)) / static_cast<double>(gap);
+      static_cast<double>(StampDistanceNs(before->stamp_ns, stamp_ns)) / static_cast<double>(gap);
   return InterpolatePose(before->T_world_camera, after->T_world_camera, alpha);
 }
 

@@ -7,14 +7,10 @@
 #include <set>
 #include <tuple>
 
+#include "common/time_util.h"
+
 namespace semmap {
 namespace {
-
-// |x - y| exactly, for any two int64 values.
-uint64_t Distance(int64_t x, int64_t y) {
-  return x > y ? static_cast<uint64_t>(x) - static_cast<uint64_t>(y)
-               : static_cast<uint64_t>(y) - static_cast<uint64_t>(x);
-}
 
 // One a-stamp's best remaining partner, ordered as associate.py sorts its candidate pairs:
 // difference, then a's stamp, b's stamp, then the indices (a stable order for equal stamps).
@@ -70,12 +66,12 @@ std::vector<std::optional<size_t>> AssociateStamps(const std::vector<int64_t>& a
     const auto upper = open.lower_bound(first_above);
     std::optional<size_t> group;
     if (upper != open.begin()) group = *std::prev(upper);
-    if (upper != open.end() &&
-        (!group || Distance(group_stamp[*upper], a[i]) < Distance(group_stamp[*group], a[i]))) {
+    if (upper != open.end() && (!group || StampDistanceNs(group_stamp[*upper], a[i]) <
+                                              StampDistanceNs(group_stamp[*group], a[i]))) {
       group = *upper;
     }
     if (!group) return std::nullopt;
-    const uint64_t difference = Distance(group_stamp[*group], a[i]);
+    const uint64_t difference = StampDistanceNs(group_stamp[*group], a[i]);
     if (difference >= max_difference) return std::nullopt;
     return Candidate{difference, a[i], group_stamp[*group], i, b_order[cursor[*group]], *group};
   };

@@ -18,10 +18,10 @@
 namespace semmap {
 namespace {
 
-constexpr std::string_view kMagic = "SMBOWVOC";
+constexpr std::string_view kVocabularyMagic = "SMBOWVOC";
 constexpr uint32_t kVersion = 1;
 constexpr uint32_t kWeightingTfIdf = 0;
-constexpr size_t kHeaderBytes = 8 + 8 * 4;
+constexpr size_t kVocabularyHeaderBytes = 8 + 8 * 4;
 constexpr size_t kDigestBytes = 32;
 
 void PutU32(std::string* out, uint32_t v) {
@@ -34,9 +34,9 @@ void PutF64(std::string* out, double v) {
 }
 
 // Reads fields in order; the caller has checked the total size, so reads never run past it.
-class Reader {
+class VocabularyReader {
  public:
-  explicit Reader(std::string_view bytes) : bytes_(bytes) {}
+  explicit VocabularyReader(std::string_view bytes) : bytes_(bytes) {}
   uint32_t U32() {
     uint32_t v = 0;
     for (int i = 0; i < 4; ++i) v |= uint32_t{Byte()} << (8 * i);
@@ -63,7 +63,7 @@ class Reader {
 }  // namespace
 
 std::string BowVocabulary::Serialize() const {
-  std::string out(kMagic);
+  std::string out(kVocabularyMagic);
   for (uint32_t v : {kVersion, static_cast<uint32_t>(branching_), static_cast<uint32_t>(levels_),
                      static_cast<uint32_t>(descriptor_bytes_), static_cast<uint32_t>(nodes_.size()),
                      static_cast<uint32_t>(word_node_.size()),
@@ -82,16 +82,16 @@ std::string BowVocabulary::Serialize() const {
 }
 
 StatusOr<BowVocabulary> BowVocabulary::Deserialize(std::string_view bytes) {
-  if (bytes.size() < kMagic.size()) {
-    if (kMagic.starts_with(bytes)) {
+  if (bytes.size() < kVocabularyMagic.size()) {
+    if (kVocabularyMagic.starts_with(bytes)) {
       return DataLossError("truncated vocabulary: " + std::to_string(bytes.size()) + " bytes");
     }
     return InvalidArgumentError("not a semmap vocabulary (no SMBOWVOC magic)");
   }
-  if (!bytes.starts_with(kMagic)) {
+  if (!bytes.starts_with(kVocabularyMagic)) {
     return InvalidArgumentError("not a semmap vocabulary (no SMBOWVOC magic)");
   }
-  if (bytes.size() < kHeaderBytes + kDigestBytes) {
+  if (bytes.size() < kVocabularyHeaderBytes + kDigestBytes) {
     return DataLossError("truncated vocabulary: " + std::to_string(bytes.size()) + " bytes");
   }
   // The checksum comes first: it also covers the version, so a damaged version reads as damage.
@@ -100,8 +100,8 @@ StatusOr<BowVocabulary> BowVocabulary::Deserialize(std::string_view bytes) {
   if (std::memcmp(digest.data(), bytes.data() + body.size(), kDigestBytes) != 0) {
     return DataLossError("vocabulary checksum mismatch (truncated or corrupted file)");
   }
-  Reader in(body);
-  in.Skip(kMagic.size());
+  VocabularyReader in(body);
+  in.Skip(kVocabularyMagic.size());
   const uint32_t version = in.U32();
   if (version != kVersion) {
     return InvalidArgumentError("unsupported vocabulary version " + std::to_string(version) +
@@ -117,7 +117,7 @@ StatusOr<BowVocabulary> BowVocabulary::Deserialize(std::string_view bytes) {
   const std::optional<uint64_t> tree_bytes = CheckedProduct({nodes, 8});
   const std::optional<uint64_t> centre_bytes = CheckedProduct({nodes, descriptor_bytes});
   const std::optional<uint64_t> weight_bytes = CheckedProduct({words, 8});
-  std::optional<uint64_t> expected = kHeaderBytes;
+  std::optional<uint64_t> expected = kVocabularyHeaderBytes;
   for (const std::optional<uint64_t>& part : {tree_bytes, centre_bytes, weight_bytes}) {
     expected = expected && part ? CheckedAdd(*expected, *part) : std::nullopt;
   }

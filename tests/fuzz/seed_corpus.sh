@@ -15,7 +15,7 @@ fi
 out=$1
 root=$(cd "$(dirname "$0")/../.." && pwd)
 here=$root/tests/fuzz
-make_seeds=${FUZZ_MAKE_SEEDS:-$root/build/fuzz/tests/fuzz/fuzz_make_seeds}
+make_seeds=${FUZZ_MAKE_SEEDS:-$root/build/asan/tests/fuzz/fuzz_make_seeds}
 sample=$root/data/samples/tum_fr3_teddy_80
 shared=${SEMMAP_SHARED_DATA_DIR:-$root/../shared/data}
 
@@ -85,7 +85,7 @@ fi
 if [ -x "$make_seeds" ]; then
   "$make_seeds" "$out"
 else
-  echo "seed_corpus: $make_seeds not built (cmake --build --preset fuzz); binary targets" \
+  echo "seed_corpus: $make_seeds not built (cmake --build --preset asan --target fuzz_all); binary targets" \
     "get no generated seeds" >&2
 fi
 [ -f "$root/models/orb_vocab.bin" ] && cp "$root/models/orb_vocab.bin" "$out/large/bow_vocabulary/"

@@ -23,9 +23,13 @@ cv::Mat TexturedImage(int width, int height, int seed) {
   rng.fill(image, cv::RNG::UNIFORM, 0, 255);
   cv::GaussianBlur(image, image, cv::Size(5, 5), 1.2);
   for (int i = 0; i < 40; ++i) {
-    const cv::Point p(rng.uniform(0, width), rng.uniform(0, height));
-    cv::circle(image, p, rng.uniform(2, 12),
-               cv::Scalar(rng.uniform(0, 255), rng.uniform(0, 255), rng.uniform(0, 255)), -1);
+    // One draw per statement, last argument first: argument order is unspecified, and the
+    // image must not depend on the compiler (this is the order gcc took).
+    const int y = rng.uniform(0, height);
+    const cv::Point p(rng.uniform(0, width), y);
+    const int r = rng.uniform(0, 255), g = rng.uniform(0, 255), b = rng.uniform(0, 255);
+    const int radius = rng.uniform(2, 12);
+    cv::circle(image, p, radius, cv::Scalar(b, g, r), -1);
   }
   return image;
 }

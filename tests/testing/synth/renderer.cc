@@ -10,13 +10,11 @@
 #include <vector>
 
 namespace semmap::synth {
-namespace {
 
-using Eigen::Vector3d;
-
-constexpr double kNearM = 0.01;  // near clipping plane
-constexpr int kMaxMipLevels = 6;
-constexpr float kEdgeTexels = 0.02f;  // tolerance of the inside test at rectangle edges
+// The render-ready types Renderer::Prepared holds: outside the anonymous namespace, since a
+// class with external linkage must not hold members of file-local types (and in a unity batch
+// this file is not the main file, where gcc would say so).
+namespace render_detail {
 
 struct MipLevel {
   const uint32_t* texels = nullptr;  // BGRA, little-endian: 0xAARRGGBB
@@ -31,11 +29,24 @@ struct PreparedTexture {
 };
 
 struct PreparedSurface {
-  Vector3d origin, u, v, normal;
+  Eigen::Vector3d origin, u, v, normal;
   double width, height;
   double texels_per_m_s, texels_per_m_t;
   int texture;
 };
+
+}  // namespace render_detail
+using render_detail::MipLevel;
+using render_detail::PreparedSurface;
+using render_detail::PreparedTexture;
+
+namespace {
+
+using Eigen::Vector3d;
+
+constexpr double kNearM = 0.01;  // near clipping plane
+constexpr int kMaxMipLevels = 6;
+constexpr float kEdgeTexels = 0.02f;  // tolerance of the inside test at rectangle edges
 
 // Blends two BGRA texels, weight w/256 of b (w in 0..256), two channels per multiply.
 inline uint32_t Lerp(uint32_t a, uint32_t b, uint32_t w) {

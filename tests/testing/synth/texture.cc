@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
@@ -11,7 +12,6 @@
 namespace semmap::synth {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kShift = 4;  // sub-texel precision of OpenCV drawing coordinates (1/16)
 constexpr double kOne = 1 << kShift;
 
@@ -87,8 +87,11 @@ cv::Scalar HsvToBgr(double h, double s, double v) {
 
 cv::Scalar RandomColour(const Palette& palette, Rng& rng) {
   const double h = palette.hue + palette.hue_spread * rng.Normal();
-  return HsvToBgr(h, rng.Uniform(palette.sat_lo, palette.sat_hi),
-                  rng.Uniform(palette.val_lo, palette.val_hi));
+  // One draw per statement: the order of a call's arguments is unspecified (gcc and clang
+  // differ), and the scene must not depend on the compiler. This order is the one gcc took.
+  const double v = rng.Uniform(palette.val_lo, palette.val_hi);
+  const double s = rng.Uniform(palette.sat_lo, palette.sat_hi);
+  return HsvToBgr(h, s, v);
 }
 
 cv::Point FixedPoint(double x, double y) {
@@ -139,7 +142,7 @@ void DrawWord(cv::Mat& image, double x, double y, double radius, const cv::Scala
 void DrawShape(cv::Mat& image, double x, double y, double radius, const Palette& palette,
                Rng& rng) {
   const cv::Scalar colour = RandomColour(palette, rng);
-  const double angle = rng.Uniform(0.0, 2.0 * kPi);
+  const double angle = rng.Uniform(0.0, 2.0 * std::numbers::pi);
   const double ca = std::cos(angle), sa = std::sin(angle);
   switch (rng.UniformInt(0, 6)) {
     case 0: {  // rotated rectangle
@@ -156,7 +159,7 @@ void DrawShape(cv::Mat& image, double x, double y, double radius, const Palette&
     case 1: {  // triangle
       cv::Point pts[3];
       for (int i = 0; i < 3; ++i) {
-        const double t = angle + i * 2.0 * kPi / 3.0 + rng.Uniform(-0.6, 0.6);
+        const double t = angle + i * 2.0 * std::numbers::pi / 3.0 + rng.Uniform(-0.6, 0.6);
         const double r = radius * rng.Uniform(0.6, 1.3);
         pts[i] = FixedPoint(x + r * std::cos(t), y + r * std::sin(t));
       }
@@ -166,15 +169,15 @@ void DrawShape(cv::Mat& image, double x, double y, double radius, const Palette&
     case 2: {  // ellipse
       const cv::Size axes(static_cast<int>(radius * kOne),
                           static_cast<int>(radius * rng.Uniform(0.35, 1.0) * kOne));
-      cv::ellipse(image, FixedPoint(x, y), axes, angle * 180.0 / kPi, 0, 360, colour, cv::FILLED,
-                  cv::LINE_AA, kShift);
+      cv::ellipse(image, FixedPoint(x, y), axes, angle * 180.0 / std::numbers::pi, 0, 360, colour,
+                  cv::FILLED, cv::LINE_AA, kShift);
       break;
     }
     case 3: {  // irregular star-like polygon (non-convex: many corners)
       const int n = rng.UniformInt(5, 9);
       std::vector<cv::Point> pts;
       for (int i = 0; i < n; ++i) {
-        const double t = angle + i * 2.0 * kPi / n;
+        const double t = angle + i * 2.0 * std::numbers::pi / n;
         const double r = radius * (i % 2 == 0 ? rng.Uniform(0.8, 1.3) : rng.Uniform(0.3, 0.7));
         pts.push_back(FixedPoint(x + r * std::cos(t), y + r * std::sin(t)));
       }
@@ -244,8 +247,11 @@ void DrawCaption(cv::Mat& image, std::string_view caption, Rng& rng) {
       static_cast<int>(rng.Uniform(pad, std::max<double>(pad + 1, image.cols - size.width - pad)));
   const int y = static_cast<int>(rng.Uniform(
       size.height + pad, std::max<double>(size.height + pad + 1, image.rows - baseline - pad)));
-  const cv::Scalar band = HsvToBgr(rng.Uniform(), rng.Uniform(0.0, 0.3), rng.Uniform(0.85, 1.0));
-  const cv::Scalar ink = HsvToBgr(rng.Uniform(), rng.Uniform(0.3, 1.0), rng.Uniform(0.0, 0.3));
+  // Draws in sequence, last argument first (see RandomColour).
+  const double band_v = rng.Uniform(0.85, 1.0), band_s = rng.Uniform(0.0, 0.3);
+  const cv::Scalar band = HsvToBgr(rng.Uniform(), band_s, band_v);
+  const double ink_v = rng.Uniform(0.0, 0.3), ink_s = rng.Uniform(0.3, 1.0);
+  const cv::Scalar ink = HsvToBgr(rng.Uniform(), ink_s, ink_v);
   cv::rectangle(image, cv::Point(x - pad, y - size.height - pad),
                 cv::Point(x + size.width + pad, y + baseline + pad), band, cv::FILLED);
   cv::putText(image, text, cv::Point(x, y), font, scale, ink, thickness, cv::LINE_AA);
@@ -263,8 +269,8 @@ cv::Mat GenerateTextureOrThrow(int cols, int rows, TextureStyle style, uint64_t 
       std::max(params.min_radius, std::min(params.max_radius, std::min(cols, rows) / 4.0));
   // Largest shapes first: smaller ones land on top, so every scale stays visible.
   for (double radius = max_radius; radius >= params.min_radius * 0.99; radius *= 0.5) {
-    const int count =
-        static_cast<int>(std::lround(params.coverage * area / (kPi * radius * radius)));
+    const int count = static_cast<int>(
+        std::lround(params.coverage * area / (std::numbers::pi * radius * radius)));
     for (int i = 0; i < count; ++i) {
       const double jitter = radius * rng.Uniform(0.7, 1.4);
       const double x = rng.Uniform(-radius, cols + radius);

@@ -11,7 +11,7 @@ namespace semmap::synth {
 namespace {
 
 using Eigen::Vector3d;
-constexpr double kPi = std::numbers::pi;
+
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr uint64_t kFastStream = 0x666173744D6F7665ULL;  // "fastMove"
 
@@ -56,7 +56,7 @@ StatusOr<std::vector<StampedPose>> Generate(const Eigen::AlignedBox3d& room,
 // Position and heading along an anticlockwise rounded rectangle of half extents (a, b) and
 // corner radius r, at arc length s from the middle of its +x side.
 void RoundedRectangle(double a, double b, double r, double s, Vector3d* position, double* heading) {
-  const double ly = 2.0 * (b - r), lx = 2.0 * (a - r), arc = 0.5 * kPi * r;
+  const double ly = 2.0 * (b - r), lx = 2.0 * (a - r), arc = 0.5 * std::numbers::pi * r;
   const double perimeter = 2.0 * (lx + ly) + 4.0 * arc;
   s = std::fmod(s + 0.5 * ly, perimeter);  // start half-way up the +x side
   if (s < 0) s += perimeter;
@@ -67,7 +67,7 @@ void RoundedRectangle(double a, double b, double r, double s, Vector3d* position
   const Vector3d corner_centres[4] = {
       {a - r, b - r, 0}, {-(a - r), b - r, 0}, {-(a - r), -(b - r), 0}, {a - r, -(b - r), 0}};
   for (int k = 0; k < 4; ++k) {
-    const double dir = 0.5 * kPi * (k + 1);
+    const double dir = 0.5 * std::numbers::pi * (k + 1);
     if (s <= side_lengths[k]) {
       *position = side_starts[k] + s * Vector3d(std::cos(dir), std::sin(dir), 0);
       *heading = dir;
@@ -75,9 +75,10 @@ void RoundedRectangle(double a, double b, double r, double s, Vector3d* position
     }
     s -= side_lengths[k];
     if (s <= arc || k == 3) {
-      const double angle = 0.5 * kPi * k + std::min(s, arc) / r;  // from the corner's centre
+      const double angle =
+          0.5 * std::numbers::pi * k + std::min(s, arc) / r;  // from the corner's centre
       *position = corner_centres[k] + r * Vector3d(std::cos(angle), std::sin(angle), 0);
-      *heading = angle + 0.5 * kPi;
+      *heading = angle + 0.5 * std::numbers::pi;
       return;
     }
     s -= arc;
@@ -157,7 +158,7 @@ StatusOr<std::vector<StampedPose>> CorridorLoopTrajectory(const Eigen::AlignedBo
     double heading = 0;
     RoundedRectangle(a, b, r, u * perimeter, &offset, &heading);
     offset.z() = 0.03 * std::sin(kTwoPi * 4.0 * u);
-    return LookingPose(g.centre + offset, heading - kPi / 3.0,
+    return LookingPose(g.centre + offset, heading - std::numbers::pi / 3.0,
                        -0.15 + 0.04 * std::sin(kTwoPi * 3.0 * u));
   });
 }
@@ -179,7 +180,8 @@ StatusOr<std::vector<StampedPose>> FastMotionTrajectory(const Eigen::AlignedBox3
     freq[k] = kTwoPi * (k % 2 == 0 ? rng.Uniform(0.5, 0.8) : rng.Uniform(1.2, 1.8));
     phase[k] = rng.Uniform(0.0, kTwoPi);
   }
-  const double turn_rate = (rng.Bernoulli(0.5) ? 1.0 : -1.0) * rng.Uniform(1.2, 2.0);  // rad/s
+  const double turn_sign = rng.Bernoulli(0.5) ? 1.0 : -1.0;
+  const double turn_rate = turn_sign * rng.Uniform(1.2, 2.0);  // rad/s
   const double yaw0 = rng.Uniform(0.0, kTwoPi);
   return Generate(room, options, [&](const Geometry& g, int i) {
     const double t = i / options.rate_hz;

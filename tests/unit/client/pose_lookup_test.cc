@@ -7,11 +7,11 @@
 #include <vector>
 
 #include "common/pose.h"
+#include "tests/testing/units.h"
 
 namespace semmap {
 namespace {
 
-constexpr int64_t kMs = 1'000'000;
 constexpr int64_t kT0 = 1'000'000'000'000LL;  // an arbitrary epoch
 
 StampedPose At(int64_t stamp_ns, double yaw, const Eigen::Vector3d& t) {

@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "tests/testing/all_pairs_association.h"
+#include "tests/testing/units.h"
 
 namespace semmap {
 namespace {
 
-constexpr int64_t kMs = 1'000'000;
 constexpr int64_t kMax = 20 * kMs;
 using Partners = std::vector<std::optional<size_t>>;
 

@@ -11,7 +11,6 @@
 namespace semmap {
 namespace {
 
-using eval_test::kMs;
 using eval_test::MakePose;
 
 std::vector<size_t> Firsts(const std::vector<StampMatch>& m) {

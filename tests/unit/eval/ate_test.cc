@@ -11,7 +11,6 @@ namespace semmap {
 namespace {
 
 using eval_test::Helix;
-using eval_test::kMs;
 using eval_test::kT0;
 using eval_test::MakePose;
 using eval_test::Rot;

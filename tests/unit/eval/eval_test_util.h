@@ -7,10 +7,10 @@
 #include <vector>
 
 #include "client/datasets/trajectory_io.h"
+#include "tests/testing/units.h"
 
 namespace semmap::eval_test {
 
-constexpr int64_t kMs = 1'000'000;
 constexpr int64_t kSecond = 1'000'000'000;
 // A Unix-time origin like the TUM sequences', so stamps go through the double rounding the TUM
 // scripts apply.

@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "tests/testing/temp_dir.h"
+#include "tests/testing/units.h"
 #include "tests/unit/eval/eval_test_util.h"
 
 namespace semmap {
@@ -13,8 +14,6 @@ namespace {
 
 using eval_test::MakePose;
 using eval_test::Rot;
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 // Straight ahead along z (the KITTI camera's forward axis), 1 m per frame, frames 0..n-1.
 std::vector<StampedPose> Straight(int n, double metres_per_frame = 1.0) {

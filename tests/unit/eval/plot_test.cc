@@ -119,7 +119,7 @@ TEST(PlotTest, StraightLineAndFlatErrorsStillRender) {
   std::vector<StampedPose> gt;
   gt.reserve(20);
   for (int i = 0; i < 20; ++i) {
-    gt.push_back(eval_test::MakePose(eval_test::kT0 + i * 100 * eval_test::kMs, {0, 0, 1.0 * i}));
+    gt.push_back(eval_test::MakePose(eval_test::kT0 + i * 100 * kMs, {0, 0, 1.0 * i}));
   }
   const AteResult ate = ComputeAte(gt, gt).value();
   EXPECT_TRUE(RenderTrajectoryPlot(ate).ok());
@@ -130,8 +130,7 @@ TEST(PlotTest, HugeCoordinatesTerminate) {
   // Far from the origin, the tick loop must still end (k + 1 == k in doubles there).
   AteResult ate;
   for (int i = 0; i < 10; ++i) {
-    StampedPose p =
-        eval_test::MakePose(eval_test::kT0 + i * eval_test::kMs, {1e17 + 64.0 * i, 1e17, 5.0 * i});
+    StampedPose p = eval_test::MakePose(eval_test::kT0 + i * kMs, {1e17 + 64.0 * i, 1e17, 5.0 * i});
     ate.ground_truth.push_back(p);
     ate.aligned_estimate.push_back(p);
     AtePair pair;

@@ -5,17 +5,15 @@
 #include <cmath>
 #include <numbers>
 
+#include "tests/testing/units.h"
 #include "tests/unit/eval/eval_test_util.h"
 
 namespace semmap {
 namespace {
 
-using eval_test::kMs;
 using eval_test::kT0;
 using eval_test::MakePose;
 using eval_test::Rot;
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 // Poses every `step_ms` for `count` poses, moving along x at `speed` m/s and turning about z at
 // `turn_deg_per_s`.

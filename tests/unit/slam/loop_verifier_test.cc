@@ -12,6 +12,7 @@
 
 #include "common/xi_check.h"
 #include "tests/testing/synth/texture.h"
+#include "tests/testing/units.h"
 #include "tests/unit/odometry/odometry_test_util.h"
 
 namespace semmap {
@@ -20,8 +21,6 @@ namespace {
 using odometry_test::AngleDeg;
 using odometry_test::Extract;
 using odometry_test::MakeRenderer;
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 const FeatureExtractor& Extractor() {
   static const FeatureExtractor* const e = [] {
