@@ -174,7 +174,12 @@ def main() -> int:
     if not database.exists():
         sys.exit(f"clang_tidy: {database} is missing (configure the build first)")
     prefixes = [str((ROOT / p).resolve()) for p in (args.paths or DEFAULT_DIRS)]
-    entries = [e for e in expand_unity(json.loads(database.read_text()))
+    # Unity batches as their sources: what is checked, and the database clang-tidy reads.
+    all_entries = expand_unity(json.loads(database.read_text()))
+    database_dir = pathlib.Path(args.build_dir) / "clang-tidy"
+    database_dir.mkdir(exist_ok=True)
+    (database_dir / "compile_commands.json").write_text(json.dumps(all_entries, indent=1))
+    entries = [e for e in all_entries
                if any(str(pathlib.Path(e["file"]).resolve()).startswith(p + os.sep) or
                       str(pathlib.Path(e["file"]).resolve()) == p for p in prefixes)
                and "/tests/fuzz/" not in e["file"]]
@@ -188,10 +193,6 @@ def main() -> int:
             entries = affected(entries, args.build_dir, changed)
         print(f"clang_tidy: {len(entries)} of {total} files affected by changes since "
               f"{args.since}", file=sys.stderr)
-    database_dir = pathlib.Path(args.build_dir) / "clang-tidy"
-    database_dir.mkdir(exist_ok=True)
-    (database_dir / "compile_commands.json").write_text(
-        json.dumps(expand_unity(json.loads(database.read_text())), indent=1))
     config = (ROOT / ".clang-tidy").read_bytes()
     tidy = find_clang_tidy()
     start = time.monotonic()

@@ -97,11 +97,6 @@ def write_tum_trajectory(path, stamps, poses):
             f.write(f"{t:.6f} {T[0, 3]:.6f} {T[1, 3]:.6f} {T[2, 3]:.6f} {q[0]:.6f} {q[1]:.6f} {q[2]:.6f} {q[3]:.6f}\n")
 
 
-def associate_stamps(a, b, max_dt=0.02):
-    """Index pairs (i, j): the nearest b_j to each a_i within max_dt (data.nearest_pairs)."""
-    return nearest_pairs(a, b, max_dt)
-
-
 def umeyama(src, dst, with_scale):
     """Least-squares s, R, t with dst ~ s R src + t; src, dst (N,3)."""
     mu_s, mu_d = src.mean(0), dst.mean(0)
@@ -119,7 +114,7 @@ def umeyama(src, dst, with_scale):
 
 def ate(est_stamps, est, gt_stamps, gt):
     """ATE figures; est/gt poses (N,4,4)."""
-    pairs = associate_stamps(est_stamps, gt_stamps)
+    pairs = nearest_pairs(est_stamps, gt_stamps)
     if len(pairs) < 3:
         raise ValueError("fewer than 3 associated poses")
     P = np.array([est[i][:3, 3] for i, _ in pairs])
@@ -140,7 +135,7 @@ def ate(est_stamps, est, gt_stamps, gt):
 
 def rpe(est_stamps, est, gt_stamps, gt, delta_s=1.0):
     """RPE over delta_s windows: translation RMSE (m), rotation mean (deg), TUM definition."""
-    pairs = associate_stamps(est_stamps, gt_stamps)
+    pairs = nearest_pairs(est_stamps, gt_stamps)
     st = np.array([est_stamps[i] for i, _ in pairs])
     E = [est[i] for i, _ in pairs]
     Gt = [gt[j] for _, j in pairs]
