@@ -84,6 +84,11 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
       mono_vo == "net" ? semmap::MonoVoMethod::kNet : semmap::MonoVoMethod::kHybrid;
   SEMMAP_ASSIGN_OR_RETURN(options->ingest.slam.verifier.max_xi,
                           args.GetDouble("loop-max-xi", options->ingest.slam.verifier.max_xi));
+  const std::string local_ba = args.Get("local-ba", "on");
+  if (local_ba != "on" && local_ba != "off") {
+    return semmap::InvalidArgumentError("--local-ba must be on or off");
+  }
+  options->ingest.slam.local_ba.enabled = local_ba == "on";
   const std::string layers = args.Get("map-layers", "on");
   if (layers != "on" && layers != "off") {
     return semmap::InvalidArgumentError("--map-layers must be on or off");
@@ -173,6 +178,9 @@ int main(int argc, char** argv) {
   args.AddFlag("loop-max-xi", "X",
                "reject a loop whose candidate matches more than X times better than its "
                "neighbouring keyframes (default 1.25)");
+  args.AddFlag("local-ba", "on|off",
+               "bundle-adjust each RGBD keyframe with its covisible keyframes and their map "
+               "points, and track against the refined points (default on)");
   args.AddFlag("map-layers", "on|off",
                "build the 3D layers (OctoMap occupancy, coloured cloud) from keyframes with depth "
                "(default on)");

@@ -191,9 +191,9 @@ void MapLayerBuilder::Handle(const PoseUpdate& update) {
   for (const KeyframePose& pose : update.poses) {
     const Key key{pose.session_id, pose.seq};
     Entry& entry = entries_[key];
-    if (entry.inserted && entry.T_world_keyframe &&
-        MovedBeyond(*entry.T_world_keyframe, pose.T_world_keyframe,
-                    options_.rebuild_min_translation_m, options_.rebuild_min_rotation_rad)) {
+    if (entry.inserted &&
+        MovedBeyond(entry.T_world_built, pose.T_world_keyframe, options_.rebuild_min_translation_m,
+                    options_.rebuild_min_rotation_rad)) {
       rebuild_needed_ = true;
     }
     entry.T_world_keyframe = pose.T_world_keyframe;
@@ -246,6 +246,7 @@ void MapLayerBuilder::InsertIfReady(const Key& key, Entry& entry) {
     return;
   }
   entry.inserted = true;
+  entry.T_world_built = *entry.T_world_keyframe;
   std::lock_guard lock(mutex_);
   ++stats_.keyframes_inserted;
 }
@@ -281,7 +282,9 @@ void MapLayerBuilder::Rebuild() {
   size_t inserted = 0;
   for (auto& [key, entry] : entries_) {
     entry.inserted = entry.cloud && entry.T_world_keyframe && InLayerFrame(key, entry).has_value();
-    if (entry.inserted) ++inserted;
+    if (!entry.inserted) continue;
+    entry.T_world_built = *entry.T_world_keyframe;
+    ++inserted;
   }
   dirty_ = true;
   std::lock_guard lock(mutex_);

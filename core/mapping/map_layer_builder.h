@@ -58,9 +58,14 @@ struct MapLayerOptions {
   size_t queue_capacity = 64;  // keyframe images and pose updates waiting for the thread
   // Blob writes while keyframes keep arriving are at most this often (a Flush always writes).
   double persist_interval_s = 2.0;
-  // A correction that moves no inserted keyframe by more than this causes no rebuild.
-  double rebuild_min_translation_m = 1e-3;
-  double rebuild_min_rotation_rad = 1e-3;
+  // A correction rebuilds the occupancy tree only when it leaves some inserted keyframe more
+  // than this far from the pose the tree holds it at (moves add up until they do). The
+  // defaults keep every point within about half a 5 cm voxel of where the corrected pose puts
+  // it (0.005 rad at the 4 m range is 2 cm), so bundle adjustment's millimetre refinements after
+  // every keyframe cost no whole-map rebuilds; loop closures' corrections still do. The
+  // coloured cloud is always built from the current poses.
+  double rebuild_min_translation_m = 0.02;
+  double rebuild_min_rotation_rad = 0.005;
 
   Status Validate() const;
 };
@@ -134,6 +139,7 @@ class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
     std::shared_ptr<const KeyframeCloud> cloud;
     std::optional<Eigen::Isometry3d> T_world_keyframe;
     bool inserted = false;
+    Eigen::Isometry3d T_world_built = Eigen::Isometry3d::Identity();  // the tree's, if inserted
   };
 
   MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerOptions options,

@@ -30,12 +30,26 @@ Status FeatureExtractorOptions::Validate() const {
   if (orb_fast_threshold < 1 || orb_fast_threshold > 255) {
     return InvalidArgumentError("features orb_fast_threshold must be in [1, 255]");
   }
+  if (orb_min_fast_threshold < 0 || orb_min_fast_threshold > orb_fast_threshold) {
+    return InvalidArgumentError(
+        "features orb_min_fast_threshold must be in [0, orb_fast_threshold]");
+  }
   if (!std::isfinite(min_depth_m) || !std::isfinite(max_depth_m) || min_depth_m <= 0 ||
       max_depth_m <= min_depth_m) {
     return InvalidArgumentError("features depth range must satisfy 0 < min_depth_m < max_depth_m");
   }
   return OkStatus();
 }
+
+namespace {
+
+int CellOf(const cv::Point2f& p, int width, int height, int cols, int rows) {
+  const int cx = std::clamp(static_cast<int>(p.x * cols / width), 0, cols - 1);
+  const int cy = std::clamp(static_cast<int>(p.y * rows / height), 0, rows - 1);
+  return cy * cols + cx;
+}
+
+}  // namespace
 
 std::vector<cv::KeyPoint> BucketKeypoints(std::vector<cv::KeyPoint> keypoints, int width,
                                           int height, int cols, int rows, int budget) {
@@ -52,11 +66,7 @@ std::vector<cv::KeyPoint> BucketKeypoints(std::vector<cv::KeyPoint> keypoints, i
   std::vector<cv::KeyPoint> out;
   out.reserve(static_cast<size_t>(budget));
   for (size_t i = 0; i < keypoints.size() && static_cast<int>(out.size()) < budget; ++i) {
-    const cv::Point2f& p = keypoints[i].pt;
-    const int cx = std::clamp(static_cast<int>(p.x * cols / width), 0, cols - 1);
-    const int cy = std::clamp(static_cast<int>(p.y * rows / height), 0, rows - 1);
-    int& n = taken_in_cell[static_cast<size_t>(cy) * static_cast<size_t>(cols) +
-                           static_cast<size_t>(cx)];
+    int& n = taken_in_cell[static_cast<size_t>(CellOf(keypoints[i].pt, width, height, cols, rows))];
     if (n < share) {
       ++n;
       taken[i] = true;
@@ -70,19 +80,49 @@ std::vector<cv::KeyPoint> BucketKeypoints(std::vector<cv::KeyPoint> keypoints, i
   return out;
 }
 
+void FillSparseCells(std::vector<cv::KeyPoint>* keypoints, std::vector<cv::KeyPoint> weak,
+                     int width, int height, int cols, int rows, int share) {
+  const size_t cells = static_cast<size_t>(cols) * static_cast<size_t>(rows);
+  std::vector<std::vector<cv::Point2f>> in_cell(cells);
+  for (const cv::KeyPoint& k : *keypoints) {
+    in_cell[static_cast<size_t>(CellOf(k.pt, width, height, cols, rows))].push_back(k.pt);
+  }
+  std::stable_sort(weak.begin(), weak.end(), [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+    return a.response > b.response;
+  });
+  for (const cv::KeyPoint& k : weak) {
+    std::vector<cv::Point2f>& here =
+        in_cell[static_cast<size_t>(CellOf(k.pt, width, height, cols, rows))];
+    if (static_cast<int>(here.size()) >= share) continue;
+    const bool duplicate = std::any_of(here.begin(), here.end(), [&](const cv::Point2f& p) {
+      const cv::Point2f d = p - k.pt;
+      return d.dot(d) < 4.0f;
+    });
+    if (duplicate) continue;
+    here.push_back(k.pt);
+    keypoints->push_back(k);
+  }
+}
+
 StatusOr<FeatureExtractor> FeatureExtractor::Create(const FeatureExtractorOptions& options,
                                                     const CameraCalibration& camera) {
   SEMMAP_RETURN_IF_ERROR(options.Validate());
   SEMMAP_RETURN_IF_ERROR(ValidateCalibration(camera));
   const int candidates = static_cast<int>(std::ceil(options.max_features * options.oversample));
   try {
-    cv::Ptr<cv::Feature2D> detector;
+    cv::Ptr<cv::Feature2D> detector, weak_detector;
+    const auto orb = [&](int threshold) {
+      return cv::ORB::create(candidates, static_cast<float>(options.orb_scale_factor),
+                             options.orb_levels, /*edgeThreshold=*/19, /*firstLevel=*/0,
+                             /*WTA_K=*/2, cv::ORB::HARRIS_SCORE, /*patchSize=*/31, threshold);
+    };
     switch (options.type) {
       case FeatureType::kOrb:
-        detector = cv::ORB::create(candidates, static_cast<float>(options.orb_scale_factor),
-                                   options.orb_levels, /*edgeThreshold=*/19, /*firstLevel=*/0,
-                                   /*WTA_K=*/2, cv::ORB::HARRIS_SCORE, /*patchSize=*/31,
-                                   options.orb_fast_threshold);
+        detector = orb(options.orb_fast_threshold);
+        if (options.orb_min_fast_threshold > 0 &&
+            options.orb_min_fast_threshold < options.orb_fast_threshold) {
+          weak_detector = orb(options.orb_min_fast_threshold);
+        }
         break;
       case FeatureType::kSift:
         detector = cv::SIFT::create(candidates);
@@ -92,7 +132,7 @@ StatusOr<FeatureExtractor> FeatureExtractor::Create(const FeatureExtractorOption
         break;
     }
     if (detector.empty()) return InternalError("could not create the feature detector");
-    return FeatureExtractor(options, camera, std::move(detector));
+    return FeatureExtractor(options, camera, std::move(detector), std::move(weak_detector));
   } catch (const cv::Exception& e) {
     return InternalError(std::string("creating the feature detector: ") + e.what());
   }
@@ -128,6 +168,23 @@ StatusOr<FrameFeatures> FeatureExtractor::Extract(const cv::Mat& image, const cv
     }
     std::vector<cv::KeyPoint> candidates;
     detector_->detect(grey, candidates);
+    if (weak_detector_) {
+      // Sparse cells (fewer candidates than their share of the oversampled budget) get the
+      // weaker corners a second, lower-threshold detection finds there.
+      const int cells = options_.grid_cols * options_.grid_rows;
+      const int share = std::max(1, options_.max_features / cells);
+      std::vector<int> count(static_cast<size_t>(cells), 0);
+      for (const cv::KeyPoint& k : candidates) {
+        ++count[static_cast<size_t>(
+            CellOf(k.pt, grey.cols, grey.rows, options_.grid_cols, options_.grid_rows))];
+      }
+      if (std::any_of(count.begin(), count.end(), [&](int c) { return c < share; })) {
+        std::vector<cv::KeyPoint> weak;
+        weak_detector_->detect(grey, weak);
+        FillSparseCells(&candidates, std::move(weak), grey.cols, grey.rows, options_.grid_cols,
+                        options_.grid_rows, share);
+      }
+    }
     out.keypoints = BucketKeypoints(std::move(candidates), grey.cols, grey.rows, options_.grid_cols,
                                     options_.grid_rows, options_.max_features);
     // compute() may drop keypoints it cannot describe (too near the border); the rest stay

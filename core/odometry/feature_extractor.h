@@ -27,6 +27,11 @@ struct FeatureExtractorOptions {
   int orb_levels = 4;
   double orb_scale_factor = 1.2;
   int orb_fast_threshold = 20;
+  // Grid cells where that threshold finds fewer corners than their share of max_features
+  // (plain walls, dim or blurred frames) take weaker corners, down to this threshold, from a
+  // second detection (as ORB-SLAM2's iniThFAST / minThFAST); 0 disables it. Geometry spread
+  // over the whole image, not only its textured corners, is what keeps rotation from drifting.
+  int orb_min_fast_threshold = 7;
   // Depth accepted for a 3D point, metres.
   double min_depth_m = 0.1;
   double max_depth_m = 8.0;
@@ -52,15 +57,25 @@ class FeatureExtractor {
 
  private:
   FeatureExtractor(FeatureExtractorOptions options, CameraCalibration camera,
-                   cv::Ptr<cv::Feature2D> detector)
-      : options_(options), camera_(camera), detector_(std::move(detector)) {}
+                   cv::Ptr<cv::Feature2D> detector, cv::Ptr<cv::Feature2D> weak_detector)
+      : options_(options),
+        camera_(camera),
+        detector_(std::move(detector)),
+        weak_detector_(std::move(weak_detector)) {}
 
   FeatureExtractorOptions options_;
   CameraCalibration camera_;
   // OpenCV detectors keep no state between calls that affects results, but they are not
   // documented as thread-safe: one extractor per tracking thread.
   cv::Ptr<cv::Feature2D> detector_;
+  cv::Ptr<cv::Feature2D> weak_detector_;  // orb_min_fast_threshold; null when off
 };
+
+// Adds to `keypoints` the `weak` keypoints that lie in grid cells holding fewer than `share`
+// of `keypoints`, at most enough to fill each such cell to its share (strongest first), and
+// none within 2 pixels of a keypoint already there (the same corner found twice).
+void FillSparseCells(std::vector<cv::KeyPoint>* keypoints, std::vector<cv::KeyPoint> weak,
+                     int width, int height, int cols, int rows, int share);
 
 // Keeps at most `budget` keypoints, spread over a cols x rows grid of the width x height image:
 // strongest first in each cell up to an equal share, then the strongest remaining anywhere.

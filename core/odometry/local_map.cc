@@ -44,9 +44,11 @@ void LocalMap::Fuse(MapPoint* mp, const Eigen::Vector3d& x, const Eigen::Matrix3
 }
 
 void LocalMap::AddKeyframe(int keyframe_id, const FrameFeatures& f, const Eigen::Isometry3d& T_wc,
-                           const std::vector<int>& point_of_keypoint) {
+                           const std::vector<int>& point_of_keypoint,
+                           std::vector<int64_t>* point_ids) {
   const Eigen::Matrix3d R = T_wc.linear();
   std::vector<int> new_keypoints;
+  if (point_ids) point_ids->assign(f.size(), -1);
   for (size_t k = 0; k < f.size(); ++k) {
     const int m = point_of_keypoint.empty() ? -1 : point_of_keypoint[k];
     if (m < 0) {
@@ -54,6 +56,7 @@ void LocalMap::AddKeyframe(int keyframe_id, const FrameFeatures& f, const Eigen:
       continue;
     }
     MapPoint& mp = points_[static_cast<size_t>(m)];
+    if (point_ids) (*point_ids)[k] = mp.id;
     mp.last_keyframe = keyframe_id;
     mp.octave = f.keypoints[k].octave;
     f.descriptors.row(static_cast<int>(k)).copyTo(descriptors_.row(m));
@@ -83,6 +86,8 @@ void LocalMap::AddKeyframe(int keyframe_id, const FrameFeatures& f, const Eigen:
   for (size_t n = 0; n < new_keypoints.size(); ++n) {
     const size_t k = static_cast<size_t>(new_keypoints[n]);
     MapPoint mp;
+    mp.id = next_id_++;
+    if (point_ids) (*point_ids)[k] = mp.id;
     mp.last_keyframe = keyframe_id;
     mp.octave = f.keypoints[k].octave;
     Fuse(&mp, T_wc * f.points_camera[k],
@@ -92,6 +97,55 @@ void LocalMap::AddKeyframe(int keyframe_id, const FrameFeatures& f, const Eigen:
         .copyTo(descriptors.row(static_cast<int>(kept_rows.size() + n)));
   }
   points_ = std::move(kept);
+  descriptors_ = descriptors;
+}
+
+void LocalMap::Merge(const LocalMapUpdate& update, const Eigen::Isometry3d& T_new_update,
+                     int keyframe_id) {
+  const size_t n = update.ids.size();
+  if (n == 0 || update.positions_world.size() != n || update.octaves.size() != n ||
+      update.descriptors.rows != static_cast<int>(n) ||
+      (!descriptors_.empty() && (update.descriptors.cols != descriptors_.cols ||
+                                 update.descriptors.type() != descriptors_.type()))) {
+    return;
+  }
+  std::unordered_map<int64_t, size_t> index;
+  index.reserve(points_.size());
+  for (size_t i = 0; i < points_.size(); ++i) index.emplace(points_[i].id, i);
+  std::vector<size_t> added;
+  for (size_t u = 0; u < n; ++u) {
+    const Eigen::Vector3d p = T_new_update * update.positions_world[u];
+    if (!p.allFinite()) continue;
+    const auto known = index.find(update.ids[u]);
+    if (known != index.end()) {
+      MapPoint& mp = points_[known->second];
+      mp.position_world = p;
+      mp.information_position = mp.information * p;
+      continue;
+    }
+    MapPoint mp;
+    mp.id = update.ids[u];
+    mp.position_world = p;
+    // A refined point is trusted like a few depth observations: sigma ~ 1 cm in every
+    // direction until tracking fuses new depth into it.
+    mp.information = Eigen::Matrix3d::Identity() * 1e4;
+    mp.information_position = mp.information * p;
+    mp.num_depth_observations = 1;
+    mp.last_keyframe = keyframe_id;
+    mp.octave = update.octaves[u];
+    index.emplace(mp.id, points_.size());
+    points_.push_back(mp);
+    added.push_back(u);
+  }
+  if (added.empty()) return;
+  cv::Mat descriptors(static_cast<int>(points_.size()), update.descriptors.cols,
+                      update.descriptors.type());
+  const int old_rows = static_cast<int>(points_.size() - added.size());
+  if (old_rows > 0) descriptors_.rowRange(0, old_rows).copyTo(descriptors.rowRange(0, old_rows));
+  for (size_t a = 0; a < added.size(); ++a) {
+    update.descriptors.row(static_cast<int>(added[a]))
+        .copyTo(descriptors.row(old_rows + static_cast<int>(a)));
+  }
   descriptors_ = descriptors;
 }
 

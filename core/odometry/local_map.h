@@ -5,7 +5,9 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <opencv2/core.hpp>
+#include <unordered_map>
 #include <vector>
 
 #include "common/camera.h"
@@ -29,6 +31,7 @@ struct LocalMapOptions {
 };
 
 struct MapPoint {
+  int64_t id = 0;  // unique for the tracker's lifetime (the back end's map points follow it)
   Eigen::Vector3d position_world = Eigen::Vector3d::Zero();
   // Sums over the depth observations: information (world frame) and information * position.
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
@@ -38,6 +41,17 @@ struct MapPoint {
   int octave = 0;          // pyramid level of the newest observation
   int visible = 0;         // frames that predicted it in view
   int found = 0;           // ... and matched it as an inlier
+};
+
+// Points of the back end's map for a session's tracker (after each local bundle adjustment):
+// the points its covisible and nearby keyframes observe, with refined positions. Ids are the
+// tracker's own (MapPoint::id), so points it forgot come back under the same id and new
+// observations of them join the same back-end point.
+struct LocalMapUpdate {
+  std::vector<int64_t> ids;
+  std::vector<Eigen::Vector3d> positions_world;
+  std::vector<int> octaves;  // of the observation the descriptor comes from
+  cv::Mat descriptors;       // one row per point
 };
 
 class LocalMap {
@@ -55,13 +69,20 @@ class LocalMap {
   // (empty, or one entry per keypoint): the map point each keypoint was matched to as an
   // inlier, -1 for none. Matched keypoints refresh their point's descriptor and fuse their
   // depth into it; unmatched keypoints with depth become new points. Points outside the
-  // keyframe window and unreliable points are dropped (indices change).
+  // keyframe window and unreliable points are dropped (indices change). `point_ids` (may be
+  // null) receives, per keypoint, the id of the point it matched or started, -1 for none.
   void AddKeyframe(int keyframe_id, const FrameFeatures& features,
                    const Eigen::Isometry3d& T_world_camera,
-                   const std::vector<int>& point_of_keypoint);
+                   const std::vector<int>& point_of_keypoint,
+                   std::vector<int64_t>* point_ids = nullptr);
 
   // Bookkeeping of one tracked frame: points predicted in view and points found (inliers).
   void CountTracked(const std::vector<int>& visible, const std::vector<int>& found);
+
+  // Takes the back end's points (positions re-expressed as T_new_update * p): known ids move
+  // to the refined position, unknown ones are added as observed by keyframe `keyframe_id` (so
+  // they stay for the window unless tracking finds them again).
+  void Merge(const LocalMapUpdate& update, const Eigen::Isometry3d& T_new_update, int keyframe_id);
 
   // Re-expresses every point as T_new_world * point.
   void Transform(const Eigen::Isometry3d& T_new_world);
@@ -78,6 +99,7 @@ class LocalMap {
   CameraCalibration camera_;
   std::vector<MapPoint> points_;
   cv::Mat descriptors_;
+  int64_t next_id_ = 0;  // never reset (Clear keeps counting)
 };
 
 }  // namespace semmap

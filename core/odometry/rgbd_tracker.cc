@@ -80,7 +80,8 @@ std::shared_ptr<const FrameFeatures> RgbdTracker::StartSegment(
 std::shared_ptr<const FrameFeatures> RgbdTracker::MakeKeyframe(
     FrameFeatures features, const Eigen::Isometry3d& T_world_camera,
     const std::vector<int>& point_of_keypoint) {
-  map_.AddKeyframe(num_keyframes_, features, T_world_camera, point_of_keypoint);
+  map_.AddKeyframe(num_keyframes_, features, T_world_camera, point_of_keypoint,
+                   &keyframe_point_ids_);
   Keyframe kf;
   kf.T_world_camera = T_world_camera;
   for (size_t i = 0; i < features.size(); ++i) {
@@ -109,6 +110,12 @@ void RgbdTracker::ApplyCorrection(const Eigen::Isometry3d& T_corrected_world) {
   // T_last_velocity_ is relative (T_prev_last): unchanged. The decider measures motion from
   // the last keyframe, which moved too.
   keyframes_decider_->ApplyCorrection(T_corrected_world);
+}
+
+void RgbdTracker::ApplyMapUpdate(const LocalMapUpdate& update,
+                                 const Eigen::Isometry3d& T_new_update) {
+  if (num_keyframes_ == 0) return;
+  map_.Merge(update, T_new_update, num_keyframes_ - 1);
 }
 
 void RgbdTracker::ProjectMap(const Eigen::Isometry3d& T_world_camera,
@@ -306,6 +313,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
   }
   if (keyframes_.empty()) {
     result.keyframe_features = StartSegment(std::move(current), options_.T_world_first);
+    result.keyframe_point_ids = std::move(keyframe_point_ids_);
     result.T_world_camera = options_.T_world_first;
     result.is_keyframe = true;
     result.timings.total_ms = MillisecondsSince(start);
@@ -393,6 +401,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
       const size_t min_depth_keypoints = 2 * static_cast<size_t>(options_.motion.min_inliers);
       if (n > 0 && lost_with_depth_ >= n && current.NumWithDepth() >= min_depth_keypoints) {
         result.keyframe_features = StartSegment(std::move(current), *T_world_last_);
+        result.keyframe_point_ids = std::move(keyframe_point_ids_);
         result.state = TrackingState::kReinitialised;
         result.new_segment = true;
         result.is_keyframe = true;
@@ -425,6 +434,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
   if (make_keyframe) {
     result.keyframe_features =
         MakeKeyframe(std::move(current), T_world_current, best->point_of_keypoint);
+    result.keyframe_point_ids = std::move(keyframe_point_ids_);
   }
   result.is_keyframe = make_keyframe;
 

@@ -84,6 +84,10 @@ struct TrackingResult {
   // When is_keyframe: the new keyframe's features (3D points in its own camera frame), shared
   // with the back end (loop closure, place recognition), never modified after publication.
   std::shared_ptr<const FrameFeatures> keyframe_features;
+  // When is_keyframe: per keypoint of keyframe_features, the id of the local-map point it
+  // observes (matched, or started by it), -1 for none. Ids are unique for the tracker's
+  // lifetime, so the back end can follow each point across keyframes (map points, BA).
+  std::vector<int64_t> keyframe_point_ids;
   // Information (as MotionEstimate::information) of this frame's pose estimate w.r.t. the
   // keyframe it was tracked against; zero when lost or for the first frame.
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
@@ -108,6 +112,10 @@ class RgbdTracker {
   // last pose, prediction) is re-expressed as T_corrected_world * T_world_x, so tracking
   // continues in the corrected frame.
   void ApplyCorrection(const Eigen::Isometry3d& T_corrected_world);
+  // The back end's refined points around the tracker (LocalMapUpdate), positions re-expressed
+  // as T_new_update * p: tracking then matches against them, including points the local map
+  // had already forgotten (a revisited place).
+  void ApplyMapUpdate(const LocalMapUpdate& update, const Eigen::Isometry3d& T_new_update);
 
   int num_keyframes() const { return num_keyframes_; }
   size_t num_map_points() const { return map_.size(); }
@@ -179,7 +187,8 @@ class RgbdTracker {
   std::optional<Eigen::Isometry3d> T_world_last_;
   Eigen::Isometry3d T_last_velocity_ = Eigen::Isometry3d::Identity();  // T_prev_last
   std::optional<int64_t> last_stamp_ns_;
-  int lost_with_depth_ = 0;  // consecutive lost frames with depth
+  int lost_with_depth_ = 0;                  // consecutive lost frames with depth
+  std::vector<int64_t> keyframe_point_ids_;  // of the keyframe MakeKeyframe made last
 };
 
 }  // namespace semmap

@@ -30,10 +30,20 @@ FrameIngestor::FrameIngestor(SessionInfo session, std::unique_ptr<FrameProcessor
     : session_(std::move(session)), processor_(std::move(processor)), map_(std::move(map)) {
   if (map_ && visual) backend_ = map_->backend();
   if (backend_ != nullptr) {
-    backend_->RegisterSession(session_.id, session_.camera, [this](const Eigen::Isometry3d& T) {
-      MutexLock lock(correction_mutex_);
-      pending_correction_ = pending_correction_ ? T * *pending_correction_ : T;
-    });
+    backend_->RegisterSession(
+        session_.id, session_.camera,
+        [this](const Eigen::Isometry3d& T) {
+          MutexLock lock(correction_mutex_);
+          pending_correction_ = pending_correction_ ? T * *pending_correction_ : T;
+          for (PendingMapUpdate& u : pending_map_updates_) u.T_new_update = T * u.T_new_update;
+        },
+        [this](std::shared_ptr<const LocalMapUpdate> update) {
+          MutexLock lock(correction_mutex_);
+          // A newer update covers the same neighbourhood, refined later: it replaces any
+          // still pending.
+          pending_map_updates_.clear();
+          pending_map_updates_.push_back({std::move(update), Eigen::Isometry3d::Identity()});
+        });
   }
 }
 
@@ -126,6 +136,7 @@ Status FrameIngestor::FeedBackend(const DecodedFrame& frame, const Ingested& ing
     event.seq = seq;
     event.T_world_keyframe = estimate.T_world_camera;
     event.features = estimate.keyframe_features;
+    event.point_ids = estimate.keyframe_point_ids;
     if (ingested.previous_keyframe_seq) {
       event.previous_seq = static_cast<int64_t>(*ingested.previous_keyframe_seq);
       event.T_previous_keyframe =
@@ -161,13 +172,18 @@ Status FrameIngestor::PublishKeyframe(const DecodedFrame& frame, const FrameEsti
 
 void FrameIngestor::ApplyPendingCorrection() {
   std::optional<Eigen::Isometry3d> correction;
+  std::vector<PendingMapUpdate> map_updates;
   {
     MutexLock lock(correction_mutex_);
     correction.swap(pending_correction_);
+    map_updates.swap(pending_map_updates_);
   }
-  if (!correction) return;
-  processor_->ApplyCorrection(*correction);
-  last_keyframe_pose_ = *correction * last_keyframe_pose_;
+  if (correction) {
+    processor_->ApplyCorrection(*correction);
+    last_keyframe_pose_ = *correction * last_keyframe_pose_;
+  }
+  for (const PendingMapUpdate& u : map_updates)
+    processor_->ApplyMapUpdate(*u.update, u.T_new_update);
 }
 
 Status FrameIngestor::Finish(MapSessionReport* report) {

@@ -63,6 +63,13 @@ class FrameIngestor {
   // Corrections from the back end's thread, applied before the next frame is tracked.
   Mutex correction_mutex_;
   std::optional<Eigen::Isometry3d> pending_correction_ SEMMAP_GUARDED_BY(correction_mutex_);
+  // Map point updates in arrival order, each with the corrections that arrived after it
+  // (T_new_update), so it is applied in the frame the tracker will be in.
+  struct PendingMapUpdate {
+    std::shared_ptr<const LocalMapUpdate> update;
+    Eigen::Isometry3d T_new_update = Eigen::Isometry3d::Identity();
+  };
+  std::vector<PendingMapUpdate> pending_map_updates_ SEMMAP_GUARDED_BY(correction_mutex_);
 };
 
 }  // namespace semmap

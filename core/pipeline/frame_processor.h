@@ -2,10 +2,12 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "common/map_types.h"
 #include "common/status.h"
@@ -36,6 +38,8 @@ struct FrameEstimate {
   // new keyframe's features (for loop closure and storage) when is_keyframe.
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
   std::shared_ptr<const FrameFeatures> keyframe_features;
+  // RGBD keyframes: the tracker's map-point id of each keypoint, -1 for none (may be empty).
+  std::vector<int64_t> keyframe_point_ids;
   // MONO: the network's depth of the frame in the camera's pixels, stored with keyframes and
   // given to the map's consumers as a sensor's would be.
   std::optional<DecodedDepth> predicted_depth;
@@ -47,6 +51,9 @@ class FrameProcessor {
   virtual StatusOr<FrameEstimate> Process(const DecodedFrame& frame) = 0;
   // The back end moved the map: continue in the corrected frame (visual modes).
   virtual void ApplyCorrection(const Eigen::Isometry3d& /*T_corrected_world*/) {}
+  // The back end's points around the session's tracker (RGBD), as RgbdTracker::ApplyMapUpdate.
+  virtual void ApplyMapUpdate(const LocalMapUpdate& /*update*/,
+                              const Eigen::Isometry3d& /*T_new_update*/) {}
 };
 
 // KNOWN_POSES: the client's pose is the truth; only the keyframe decision is ours.

@@ -30,7 +30,13 @@ StatusOr<FrameEstimate> RgbdProcessor::Process(const DecodedFrame& frame) {
   estimate.new_segment = tracked->new_segment;
   estimate.information = tracked->information;
   estimate.keyframe_features = std::move(tracked->keyframe_features);
+  estimate.keyframe_point_ids = std::move(tracked->keyframe_point_ids);
   return estimate;
+}
+
+void RgbdProcessor::ApplyMapUpdate(const LocalMapUpdate& update,
+                                   const Eigen::Isometry3d& T_new_update) {
+  tracker_.ApplyMapUpdate(update, T_new_update);
 }
 
 void RgbdProcessor::ApplyCorrection(const Eigen::Isometry3d& T_corrected_world) {

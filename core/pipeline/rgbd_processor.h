@@ -21,6 +21,7 @@ class RgbdProcessor final : public FrameProcessor {
   // keeps the last pose (state lost) rather than failing the stream.
   StatusOr<FrameEstimate> Process(const DecodedFrame& frame) override;
   void ApplyCorrection(const Eigen::Isometry3d& T_corrected_world) override;
+  void ApplyMapUpdate(const LocalMapUpdate& update, const Eigen::Isometry3d& T_new_update) override;
 
  private:
   explicit RgbdProcessor(RgbdTracker tracker) : tracker_(std::move(tracker)) {}

@@ -8,6 +8,8 @@
 #include <memory>
 #include <unordered_map>
 
+#include "core/slam/internal/ceres_support.h"
+
 namespace semmap {
 namespace {
 
@@ -59,18 +61,6 @@ Matrix6d SqrtInformation(const Matrix6d& information) {
   return d.asDiagonal() * eigen.eigenvectors().transpose();
 }
 
-Status ValidatePose(const Eigen::Isometry3d& T) {
-  if (!T.matrix().allFinite()) return InvalidArgumentError("pose is not finite");
-  const Eigen::Matrix3d R = T.linear();
-  // Loose enough for rotations that went through float, tight enough to catch a scaled or
-  // sheared matrix whose quaternion would silently be something else.
-  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-5 ||
-      R.determinant() <= 0) {
-    return InvalidArgumentError("pose rotation is not orthonormal");
-  }
-  return OkStatus();
-}
-
 Status ValidateInformation(const Matrix6d& information) {
   if (!information.allFinite()) return InvalidArgumentError("information is not finite");
   const double scale = information.cwiseAbs().maxCoeff();
@@ -82,18 +72,6 @@ Status ValidateInformation(const Matrix6d& information) {
     return InvalidArgumentError("information is not positive semi-definite");
   }
   return OkStatus();
-}
-
-ceres::SparseLinearAlgebraLibraryType SparseLibrary(bool* available) {
-  for (auto type :
-       {ceres::SUITE_SPARSE, ceres::EIGEN_SPARSE, ceres::ACCELERATE_SPARSE, ceres::CX_SPARSE}) {
-    if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(type)) {
-      *available = true;
-      return type;
-    }
-  }
-  *available = false;
-  return ceres::NO_SPARSE;
 }
 
 std::string EdgeName(size_t i, const PoseGraphEdge& e) {
@@ -145,8 +123,8 @@ StatusOr<PoseGraphResult> OptimizePoseGraph(const std::vector<PoseGraphNode>& no
     if (!index.emplace(n.id, i).second) {
       return InvalidArgumentError("pose graph has duplicate node id " + std::to_string(n.id));
     }
-    SEMMAP_RETURN_IF_ERROR(
-        ValidatePose(n.T_world_node).WithContext("pose graph node " + std::to_string(n.id)));
+    SEMMAP_RETURN_IF_ERROR(slam_internal::ValidateRigidPose(n.T_world_node)
+                               .WithContext("pose graph node " + std::to_string(n.id)));
     Eigen::Map<Eigen::Vector3d>(state[i].t) = n.T_world_node.translation();
     Eigen::Map<Eigen::Quaterniond>(state[i].q) =
         Eigen::Quaterniond(n.T_world_node.linear()).normalized();
@@ -162,7 +140,8 @@ StatusOr<PoseGraphResult> OptimizePoseGraph(const std::vector<PoseGraphNode>& no
     }
     // Ceres aborts on a residual block naming one parameter block twice.
     if (e.from == e.to) return InvalidArgumentError(EdgeName(i, e) + ": connects a node to itself");
-    SEMMAP_RETURN_IF_ERROR(ValidatePose(e.T_from_to).WithContext(EdgeName(i, e)));
+    SEMMAP_RETURN_IF_ERROR(
+        slam_internal::ValidateRigidPose(e.T_from_to).WithContext(EdgeName(i, e)));
     SEMMAP_RETURN_IF_ERROR(ValidateInformation(e.information).WithContext(EdgeName(i, e)));
     edge_nodes[i] = {from->second, to->second};
   }
@@ -209,7 +188,7 @@ StatusOr<PoseGraphResult> OptimizePoseGraph(const std::vector<PoseGraphNode>& no
   solver_options.minimizer_type = ceres::TRUST_REGION;
   solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   bool sparse = false;
-  solver_options.sparse_linear_algebra_library_type = SparseLibrary(&sparse);
+  solver_options.sparse_linear_algebra_library_type = slam_internal::ChooseSparseLibrary(&sparse);
   // A Ceres built without any sparse library still solves, iteratively.
   solver_options.linear_solver_type = sparse ? ceres::SPARSE_NORMAL_CHOLESKY : ceres::CGNR;
   solver_options.max_num_iterations = options.max_iterations;
@@ -233,9 +212,7 @@ StatusOr<PoseGraphResult> OptimizePoseGraph(const std::vector<PoseGraphNode>& no
   result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.T_world_node.reserve(nodes.size());
   for (size_t i = 0; i < nodes.size(); ++i) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.translation() = Eigen::Map<const Eigen::Vector3d>(state[i].t);
-    T.linear() = Eigen::Map<const Eigen::Quaterniond>(state[i].q).normalized().toRotationMatrix();
+    const Eigen::Isometry3d T = slam_internal::PoseFromParameters(state[i].t, state[i].q);
     if (!T.matrix().allFinite()) {
       return FailedPreconditionError("pose graph solve produced a non-finite pose for node " +
                                      std::to_string(nodes[i].id));

@@ -1,5 +1,6 @@
 #include "core/slam/slam_backend.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <set>
@@ -50,7 +51,13 @@ Status SlamBackendOptions::Validate() const {
   if (!(consistent_loop_chi2 >= 0)) {
     return InvalidArgumentError("slam consistent_loop_chi2 must be >= 0");
   }
-  return OkStatus();
+  if (tracking_map_covisible_keyframes < 0 || tracking_map_near_keyframes < 0 ||
+      tracking_map_max_points < 0 || !(tracking_map_near_radius_m >= 0) ||
+      !(tracking_map_near_angle_deg >= 0 && tracking_map_near_angle_deg <= 180)) {
+    return InvalidArgumentError(
+        "slam tracking map: counts and radius >= 0, angle in [0, 180] degrees");
+  }
+  return local_ba.Validate().WithContext("slam");
 }
 
 StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id,
@@ -106,6 +113,7 @@ SlamBackend::SlamBackend(int64_t map_id, SlamBackendOptions options,
       options_(options),
       vocabulary_(std::move(vocabulary)),
       writer_(writer),
+      map_points_(options_.local_ba.points),
       writes_(writer, "slam back end") {}
 
 void SlamBackend::OnStart() {
@@ -182,8 +190,8 @@ void SlamBackend::Restore(const MapSnapshot& snapshot) {
       last_keyframe[session_id] = {pose.seq, pose.T_world_camera};
     const auto anchor = last_keyframe.find(session_id);
     if (anchor == last_keyframe.end()) continue;
-    anchors_[session_id].push_back(
-        {pose.seq, anchor->second.first, anchor->second.second.inverse() * pose.T_world_camera});
+    AddAnchor(session_id, {pose.seq, anchor->second.first,
+                           anchor->second.second.inverse() * pose.T_world_camera});
   }
 }
 
@@ -204,22 +212,41 @@ int SlamBackend::AddNode(GraphKeyframe keyframe) {
 SlamBackend::~SlamBackend() { Stop(); }  // the worker drains what is queued first
 
 void SlamBackend::RegisterSession(int64_t session_id, const CameraCalibration& camera,
-                                  CorrectionCallback on_correction) {
+                                  CorrectionCallback on_correction,
+                                  MapUpdateCallback on_map_update) {
   std::lock_guard lock(mutex_);
   SessionState& state = sessions_[session_id];
   state.camera = camera;
   state.on_correction = std::move(on_correction);
+  state.on_map_update = std::move(on_map_update);
 }
 
 void SlamBackend::UnregisterSession(int64_t session_id) {
   std::lock_guard lock(mutex_);
   const auto it = sessions_.find(session_id);
-  if (it != sessions_.end()) it->second.on_correction = nullptr;
+  if (it != sessions_.end()) {
+    it->second.on_correction = nullptr;
+    it->second.on_map_update = nullptr;
+  }
 }
 
 Status SlamBackend::AddKeyframe(KeyframeEvent event) {
   if (!event.features) return InvalidArgumentError("keyframe event without features");
-  return Submit(Event(std::move(event)));
+  if (!event.point_ids.empty() && event.point_ids.size() != event.features->size()) {
+    return InvalidArgumentError("keyframe event has " + std::to_string(event.point_ids.size()) +
+                                " point ids for " + std::to_string(event.features->size()) +
+                                " keypoints");
+  }
+  ++queued_keyframes_;
+  Status submitted = Submit(Event(std::move(event)));
+  if (!submitted.ok()) --queued_keyframes_;
+  return submitted;
+}
+
+void SlamBackend::AddAnchor(int64_t session_id, const FrameAnchor& anchor) {
+  std::vector<FrameAnchor>& anchors = anchors_[session_id];
+  anchors_of_keyframe_[{session_id, anchor.anchor_seq}].push_back(anchors.size());
+  anchors.push_back(anchor);
 }
 
 Status SlamBackend::AddFrame(FrameAnchorEvent event) { return Submit(Event(std::move(event))); }
@@ -231,6 +258,7 @@ SlamBackendStats SlamBackend::stats() const {
   s.queue_high_water = stage.queue_high_water;
   s.keyframe_ms = keyframe_ms_.Summarize();
   s.optimise_ms = optimise_ms_.Summarize();
+  s.local_ba_ms = local_ba_ms_.Summarize();
   return s;
 }
 
@@ -248,7 +276,7 @@ void SlamBackend::OnStop() {
 }
 
 void SlamBackend::HandleFrame(const FrameAnchorEvent& event) {
-  anchors_[event.session_id].push_back({event.seq, event.anchor_seq, event.T_anchor_frame});
+  AddAnchor(event.session_id, {event.seq, event.anchor_seq, event.T_anchor_frame});
   const std::optional<int> anchor = graph_.Find(event.session_id, event.anchor_seq);
   if (!anchor) return;  // its keyframe never reached the graph (unregistered session)
   // A frame tracked before its session applied the latest correction was stored in the old
@@ -261,6 +289,7 @@ void SlamBackend::HandleFrame(const FrameAnchorEvent& event) {
 
 void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   const Clock::time_point t0 = Clock::now();
+  --queued_keyframes_;
   const CameraCalibration* camera = nullptr;
   {
     std::lock_guard lock(mutex_);
@@ -294,6 +323,12 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
     edge.kind = PoseGraphEdgeKind::kOdometry;
     graph_.AddEdge(edge);
   }
+  if (options_.local_ba.enabled && !event.point_ids.empty()) {
+    const GraphKeyframe& added = graph_.node(index);
+    map_points_.AddKeyframe(added.session_id, index, added.index_in_session, *added.features,
+                            added.T_world_keyframe, event.point_ids);
+    LocalBundleAdjust(index);
+  }
 
   std::optional<LoopClosureInfo> loop = CloseLoop(index);
   if (loop) {
@@ -306,6 +341,8 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   SubmitPending();
   std::lock_guard lock(mutex_);
   ++stats_.keyframes;
+  stats_.map_points = map_points_.size();
+  stats_.map_point_observations = map_points_.num_observations();
   if (loop) stats_.loops.push_back(*loop);
   keyframe_ms_.Add(MillisecondsSince(t0));
 }
@@ -464,39 +501,137 @@ bool SlamBackend::OptimiseAndCorrect(bool check_new_loop) {
       return false;
     }
   }
+  PosesBefore moved;
+  for (int i = 0; i < graph_.size(); ++i) moved.emplace_back(i, before[static_cast<size_t>(i)]);
+  ApplyMovedPoses(moved, /*move_points=*/true);
+  std::lock_guard lock(mutex_);
+  ++stats_.optimisations;
+  optimise_ms_.Add(MillisecondsSince(t0));
+  return true;
+}
+
+void SlamBackend::LocalBundleAdjust(int index) {
+  LocalBundleAdjustmentOptions options = options_.local_ba;
+  const int waiting = queued_keyframes_.load();
+  if (waiting > 1) {
+    std::lock_guard lock(mutex_);
+    ++stats_.local_ba_skipped;
+    return;
+  }
+  if (waiting == 1) options.max_free_keyframes = std::max(2, options.max_free_keyframes / 2);
+  PosesBefore before;
+  for (int k : map_points_.LocalWindow(index, options.max_free_keyframes, 0).free_keyframes) {
+    before.emplace_back(k, graph_.node(k).T_world_keyframe);
+  }
+  const Clock::time_point t0 = Clock::now();
+  StatusOr<LocalBundleAdjustmentReport> report =
+      RunLocalBundleAdjustment(index, graph_, map_points_, options);
+  if (!report.ok()) {
+    LogWarning("{}: local bundle adjustment failed, poses kept: {}", name(),
+               report.status().ToString());
+    std::lock_guard lock(mutex_);
+    ++stats_.local_ba_failures;
+    return;
+  }
+  if (!report->ran) return;
+  ApplyMovedPoses(before, /*move_points=*/false);
+  PublishTrackingMap(index);
+  std::lock_guard lock(mutex_);
+  ++stats_.local_ba_runs;
+  if (waiting == 1) ++stats_.local_ba_shrunk;
+  if (report->hit_time_limit) ++stats_.local_ba_time_limited;
+  stats_.ba_outliers_removed += static_cast<uint64_t>(report->outliers_removed);
+  stats_.map_points_culled += static_cast<uint64_t>(report->points_culled);
+  local_ba_ms_.Add(MillisecondsSince(t0));
+}
+
+void SlamBackend::PublishTrackingMap(int index) {
+  const GraphKeyframe& newest = graph_.node(index);
+  const auto registered = [&] {
+    const auto it = sessions_.find(newest.session_id);
+    return it != sessions_.end() && it->second.on_map_update ? &it->second : nullptr;
+  };
+  {
+    std::lock_guard lock(mutex_);
+    if (registered() == nullptr || options_.tracking_map_max_points == 0) return;
+  }
+  std::vector<int> keyframes{index};
+  for (const auto& [k, shared] : map_points_.Covisible(index)) {
+    if (static_cast<int>(keyframes.size()) > options_.tracking_map_covisible_keyframes) break;
+    keyframes.push_back(k);
+  }
+  const auto skip = [&](int k) {
+    const GraphKeyframe& node = graph_.node(k);
+    return node.session_id != newest.session_id || !graph_.SameComponent(k, index) ||
+           std::find(keyframes.begin(), keyframes.end(), k) != keyframes.end();
+  };
+  int near = 0;
+  for (int k : graph_.Near(newest.T_world_keyframe, options_.tracking_map_near_radius_m,
+                           options_.tracking_map_near_angle_deg * kPi / 180.0, skip)) {
+    if (near++ >= options_.tracking_map_near_keyframes) break;
+    keyframes.push_back(k);
+  }
+  auto update = std::make_shared<LocalMapUpdate>();
+  std::set<int64_t> taken;
+  for (int k : keyframes) {
+    for (int64_t id : map_points_.PointsOf(k)) {
+      if (static_cast<int>(update->ids.size()) >= options_.tracking_map_max_points) break;
+      const MapPointState* point = map_points_.Find(id);
+      if (point->session_id != newest.session_id || !taken.insert(id).second) continue;
+      // The descriptor and scale of its newest observation.
+      const MapPointObservation& o = point->observations.back();
+      const FrameFeatures& f = *graph_.node(o.keyframe).features;
+      update->ids.push_back(point->tracker_id);
+      update->positions_world.push_back(point->position_world);
+      update->octaves.push_back(f.keypoints[static_cast<size_t>(o.keypoint)].octave);
+      update->descriptors.push_back(f.descriptors.row(o.keypoint));
+    }
+  }
+  if (update->ids.empty()) return;
+  // Called under the lock, as corrections are: UnregisterSession waits for it to return.
+  std::lock_guard lock(mutex_);
+  if (SessionState* state = registered()) state->on_map_update(std::move(update));
+}
+
+void SlamBackend::ApplyMovedPoses(const PosesBefore& before, bool move_points) {
+  PosesBefore moved;
+  for (const auto& [i, T_old] : before) {
+    if (Moved(T_old, graph_.node(i).T_world_keyframe)) moved.emplace_back(i, T_old);
+  }
+  if (moved.empty()) return;
   if (pose_listener_) {
-    std::vector<KeyframePose> moved;
-    for (int i = 0; i < graph_.size(); ++i) {
+    std::vector<KeyframePose> poses;
+    for (const auto& [i, T_old] : moved) {
       const GraphKeyframe& k = graph_.node(i);
-      if (Moved(before[static_cast<size_t>(i)], k.T_world_keyframe)) {
-        moved.push_back({k.session_id, k.seq, k.T_world_keyframe});
-      }
+      poses.push_back({k.session_id, k.seq, k.T_world_keyframe});
     }
-    if (!moved.empty()) pose_listener_(std::move(moved), true);
+    pose_listener_(std::move(poses), true);
   }
-  // Every keyframe and frame that moved is rewritten.
-  for (const auto& [session_id, anchors] : anchors_) {
-    for (const FrameAnchor& a : anchors) {
-      const std::optional<int> anchor = graph_.Find(session_id, a.anchor_seq);
-      if (!anchor) continue;
-      const Eigen::Isometry3d& T_old = before[static_cast<size_t>(*anchor)];
-      const Eigen::Isometry3d& T_new = graph_.node(*anchor).T_world_keyframe;
-      if (!Moved(T_old, T_new)) continue;
-      pending_.pose_updates.push_back({session_id, a.seq, T_new * a.T_anchor_frame});
+  std::map<int, Eigen::Isometry3d> correction_of;  // T_new_old per moved node
+  for (const auto& [i, T_old] : moved) {
+    const GraphKeyframe& k = graph_.node(i);
+    const Eigen::Isometry3d T_new_old = k.T_world_keyframe * T_old.inverse();
+    if (move_points) correction_of[i] = T_new_old;
+    // Every frame anchored to a moved keyframe is rewritten.
+    const auto anchored = anchors_of_keyframe_.find({k.session_id, k.seq});
+    if (anchored == anchors_of_keyframe_.end()) continue;
+    const std::vector<FrameAnchor>& anchors = anchors_[k.session_id];
+    for (size_t a : anchored->second) {
+      pending_.pose_updates.push_back(
+          {k.session_id, anchors[a].seq, k.T_world_keyframe * anchors[a].T_anchor_frame});
     }
   }
+  if (move_points) map_points_.MoveWithKeyframes(correction_of);
   std::lock_guard lock(mutex_);
   // Each live session's tracker follows its latest keyframe.
   for (auto& [session_id, state] : sessions_) {
     if (!state.on_correction) continue;
     const std::optional<int> last = graph_.LastOfSession(session_id);
     if (!last) continue;
-    state.on_correction(graph_.node(*last).T_world_keyframe *
-                        before[static_cast<size_t>(*last)].inverse());
+    for (const auto& [i, T_old] : moved) {
+      if (i == *last) state.on_correction(graph_.node(i).T_world_keyframe * T_old.inverse());
+    }
   }
-  ++stats_.optimisations;
-  optimise_ms_.Add(MillisecondsSince(t0));
-  return true;
 }
 
 void SlamBackend::SubmitPending() {

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -25,10 +26,13 @@
 #include "common/latency_stats.h"
 #include "common/pipeline_stage.h"
 #include "common/status.h"
+#include "core/odometry/local_map.h"
 #include "core/sensor/frame_features.h"
 #include "core/slam/bow_vocabulary.h"
 #include "core/slam/keyframe_graph.h"
+#include "core/slam/local_bundle_adjustment.h"
 #include "core/slam/loop_verifier.h"
+#include "core/slam/map_points.h"
 #include "core/slam/place_database.h"
 #include "core/slam/pose_graph.h"
 #include "storage/map_store_opener.h"
@@ -40,6 +44,17 @@ namespace semmap {
 struct SlamBackendOptions {
   LoopVerifierOptions verifier;
   PoseGraphOptions pose_graph;
+  // After each keyframe that names its map points (KeyframeEvent::point_ids). When keyframes
+  // queue up behind it, the window shrinks to half (one waiting) or the run is skipped (more).
+  LocalBundleAdjustmentOptions local_ba;
+  // The points sent back to a session's tracker after each local BA: those observed by the
+  // newest keyframe's most covisible keyframes and by its keyframes near the newest one's
+  // pose (a revisited place), at most tracking_map_max_points. 0 keyframes: nothing is sent.
+  int tracking_map_covisible_keyframes = 15;
+  int tracking_map_near_keyframes = 10;
+  double tracking_map_near_radius_m = 1.0;
+  double tracking_map_near_angle_deg = 45;
+  int tracking_map_max_points = 4000;
   size_t queue_capacity = 512;  // events (keyframes and frame anchors) waiting for the worker
   // Keyframes this close in a session's order are its odometry neighbours, never loop
   // candidates (they are matched by tracking already).
@@ -83,6 +98,9 @@ struct KeyframeEvent {
   int64_t seq = 0;
   Eigen::Isometry3d T_world_keyframe = Eigen::Isometry3d::Identity();
   std::shared_ptr<const FrameFeatures> features;
+  // Per keypoint, the session tracker's id of the map point it observes, -1 for none; empty
+  // when the tracker keeps no map (then the keyframe takes no part in bundle adjustment).
+  std::vector<int64_t> point_ids;
   // The odometry measurement from the session's previous keyframe (absent for its first).
   std::optional<int64_t> previous_seq;
   Eigen::Isometry3d T_previous_keyframe = Eigen::Isometry3d::Identity();
@@ -143,8 +161,18 @@ struct SlamBackendStats {
   uint64_t failed_verifications = 0;      // a candidate the verifier could not judge (bad input)
   uint64_t loops_already_consistent = 0;  // accepted, but needed no optimisation
   uint64_t rejected_inconsistent = 0;     // verified, but contradicted by the optimised graph
+  uint64_t local_ba_runs = 0;
+  uint64_t local_ba_failures = 0;      // solver failed: poses and points kept
+  uint64_t local_ba_time_limited = 0;  // a solve stopped at its time bound
+  uint64_t local_ba_shrunk = 0;        // keyframes waiting: half the window
+  uint64_t local_ba_skipped = 0;       // keyframes waiting: no run
+  uint64_t ba_outliers_removed = 0;
+  uint64_t map_points_culled = 0;
+  size_t map_points = 0;
+  size_t map_point_observations = 0;
   size_t queue_high_water = 0;
-  LatencySummary keyframe_ms;  // worker time per keyframe (candidates, verification)
+  LatencySummary keyframe_ms;  // worker time per keyframe (BA, candidates, verification)
+  LatencySummary local_ba_ms;
   LatencySummary optimise_ms;
   std::vector<LoopClosureInfo> loops;
 };
@@ -155,6 +183,9 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
  public:
   // The session's tracker moves to the corrected frame: T_corrected_world * T_world_x.
   using CorrectionCallback = std::function<void(const Eigen::Isometry3d& T_corrected_world)>;
+  // The refined map points around the session's newest keyframe (after each local BA), for
+  // its tracker to match against (RgbdTracker::ApplyMapUpdate).
+  using MapUpdateCallback = std::function<void(std::shared_ptr<const LocalMapUpdate> update)>;
   // Where keyframes are, for layers built from them (map layers): a new keyframe's pose when
   // it joins the graph (correction false), and every moved keyframe's after an optimisation
   // (correction true). Runs on the back end's thread; may block briefly (bounded queue).
@@ -172,10 +203,10 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
       StageConfig stage = {});
   ~SlamBackend() override;  // drains queued events, then joins the worker
 
-  // Call before the session's first event. The callback runs on the back end's thread and
-  // must not block.
+  // Call before the session's first event. The callbacks run on the back end's thread and
+  // must not block; on_map_update may be empty.
   void RegisterSession(int64_t session_id, const CameraCalibration& camera,
-                       CorrectionCallback on_correction);
+                       CorrectionCallback on_correction, MapUpdateCallback on_map_update = nullptr);
   // No more corrections reach the session (its keyframes stay in the graph).
   void UnregisterSession(int64_t session_id);
 
@@ -194,12 +225,15 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   struct SessionState {
     CameraCalibration camera;
     CorrectionCallback on_correction;  // empty once unregistered
+    MapUpdateCallback on_map_update;   // likewise
   };
   struct FrameAnchor {
     int64_t seq = 0;
     int64_t anchor_seq = 0;
     Eigen::Isometry3d T_anchor_frame = Eigen::Isometry3d::Identity();
   };
+  // Graph nodes and their poses before an update.
+  using PosesBefore = std::vector<std::pair<int, Eigen::Isometry3d>>;
 
   SlamBackend(int64_t map_id, SlamBackendOptions options,
               std::shared_ptr<const BowVocabulary> vocabulary, StorageWriter* writer,
@@ -223,6 +257,15 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   // With check_new_loop, the latest edge is a loop that is taken back (false) when the
   // optimised graph still contradicts it (max_loop_chi2).
   bool OptimiseAndCorrect(bool check_new_loop = false);
+  void LocalBundleAdjust(int index);
+  // Sends the session of keyframe `index` the points its tracker should match against.
+  void PublishTrackingMap(int index);
+  // Publishes the moves of the nodes in `before` that moved: the layers' listener, stored
+  // poses of their frames, the sessions whose latest keyframe moved; with move_points, the
+  // map points follow the keyframe that created them (a pose-graph correction; BA solves
+  // points itself).
+  void ApplyMovedPoses(const PosesBefore& before, bool move_points);
+  void AddAnchor(int64_t session_id, const FrameAnchor& anchor);
   double EdgeChi2(const GraphEdge& edge) const;
   void SubmitPending();  // submits the pending batch
 
@@ -239,7 +282,11 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   std::map<int, BowVector> bow_;  // by node index (for the score against the previous one)
   WriteBatch pending_;
   std::map<int64_t, std::vector<FrameAnchor>> anchors_;  // by session, in seq order
-  int deferred_loops_ = 0;  // consistent loops added since the last optimisation
+  // Positions in anchors_[session] of the frames anchored to each (session, keyframe seq).
+  std::map<std::pair<int64_t, int64_t>, std::vector<size_t>> anchors_of_keyframe_;
+  MapPoints map_points_;
+  std::atomic<int> queued_keyframes_{0};  // added, not yet handled
+  int deferred_loops_ = 0;                // consistent loops added since the last optimisation
 
   PendingWrites writes_;      // the worker's batches, and the errors Drain reports
   mutable std::mutex mutex_;  // sessions_, stats_
@@ -248,6 +295,7 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   SlamBackendStats stats_;
   LatencyStats keyframe_ms_{"backend_keyframe"};
   LatencyStats optimise_ms_{"optimise"};
+  LatencyStats local_ba_ms_{"local_ba"};
 };
 
 }  // namespace semmap

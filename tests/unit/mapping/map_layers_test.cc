@@ -385,6 +385,17 @@ TEST_F(MapLayersTest, CorrectionRebuildsTheMapToMatchAFreshBuildFromTheCorrected
   ASSERT_TRUE(builder->SetKeyframePoses(rest, true).ok());
   ASSERT_TRUE(builder->Flush().ok());
   EXPECT_EQ(builder->stats().rebuilds, rebuilds);
+
+  // Bundle adjustment's refinements: 6 mm each, no rebuild, until together they leave a
+  // keyframe more than rebuild_min_translation_m from where the tree holds it.
+  const int steps_below = static_cast<int>(options_.rebuild_min_translation_m / 0.006);
+  for (int step = 1; step <= steps_below + 1; ++step) {
+    std::vector<KeyframePose> nudged = rest;
+    for (KeyframePose& p : nudged) p.T_world_keyframe.translation().x() += 0.006 * step;
+    ASSERT_TRUE(builder->SetKeyframePoses(nudged, true).ok());
+    ASSERT_TRUE(builder->Flush().ok());
+    EXPECT_EQ(builder->stats().rebuilds, rebuilds + (step > steps_below ? 1 : 0)) << step;
+  }
 }
 
 TEST_F(MapLayersTest, RestartedBuilderRestoresFromStoredKeyframes) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "tests/unit/odometry/odometry_test_util.h"
@@ -180,6 +181,60 @@ TEST(BucketKeypointsTest, EqualSharesFirstThenStrongest) {
   ASSERT_EQ(out.size(), 20u);
   EXPECT_EQ(
       std::count_if(out.begin(), out.end(), [](const cv::KeyPoint& p) { return p.pt.x > 50; }), 3);
+}
+
+TEST(FillSparseCellsTest, WeakCornersOnlyFillCellsShortOfTheirShare) {
+  // Top-left cell: 5 strong keypoints (its share); bottom-right: 1.
+  std::vector<cv::KeyPoint> strong;
+  strong.reserve(6);
+  for (int i = 0; i < 5; ++i) strong.emplace_back(cv::Point2f(10.0f + 5 * i, 10.0f), 7, -1, 50);
+  strong.emplace_back(cv::Point2f(80, 80), 7, -1, 50);
+  std::vector<cv::KeyPoint> weak;
+  weak.reserve(13);
+  for (int i = 0; i < 6; ++i) weak.emplace_back(cv::Point2f(12.0f + 5 * i, 30.0f), 7, -1, 1);
+  weak.emplace_back(cv::Point2f(81, 80), 7, -1, 9);  // the bottom-right corner found again
+  for (int i = 0; i < 6; ++i) {
+    weak.emplace_back(cv::Point2f(60.0f + 5 * i, 60.0f), 7, -1, static_cast<float>(2 + i));
+  }
+  FillSparseCells(&strong, weak, 100, 100, 2, 2, /*share=*/5);
+  const auto in = [&](float x0, float y0) {
+    return std::count_if(strong.begin(), strong.end(), [&](const cv::KeyPoint& k) {
+      return k.pt.x >= x0 && k.pt.x < x0 + 50 && k.pt.y >= y0 && k.pt.y < y0 + 50;
+    });
+  };
+  EXPECT_EQ(in(0, 0), 5);    // already full: no weak corner added
+  EXPECT_EQ(in(50, 50), 5);  // 1 + the 4 strongest weak ones; the duplicate at (81, 80) not
+  EXPECT_EQ(std::count_if(strong.begin(), strong.end(),
+                          [](const cv::KeyPoint& k) { return k.pt.x == 81; }),
+            0);
+  EXPECT_EQ(in(50, 0) + in(0, 50), 0);  // empty cells with no corners stay empty
+}
+
+TEST(FeatureExtractorTest, FaintTextureStillGetsFeaturesWithTheWeakThreshold) {
+  // A low-contrast random texture: few corners pass FAST 20, many pass 7.
+  cv::Mat image(240, 320, CV_8UC1);
+  cv::RNG rng(3);
+  cv::Mat noise(60, 80, CV_8UC1);
+  rng.fill(noise, cv::RNG::UNIFORM, 118, 138);
+  cv::resize(noise, image, image.size(), 0, 0, cv::INTER_NEAREST);
+  CameraCalibration camera;
+  camera.width = 320;
+  camera.height = 240;
+  camera.fx = camera.fy = 260;
+  camera.cx = 159.5;
+  camera.cy = 119.5;
+  FeatureExtractorOptions strong_only;
+  strong_only.orb_min_fast_threshold = 0;
+  const FeatureExtractor a = MakeExtractor(camera, strong_only);
+  const FeatureExtractor b = MakeExtractor(camera);
+  auto fa = a.Extract(image, cv::Mat(), 0);
+  auto fb = b.Extract(image, cv::Mat(), 0);
+  ASSERT_TRUE(fa.ok() && fb.ok());
+  EXPECT_GT(fb->size(), 2 * fa->size() + 100) << fa->size() << " vs " << fb->size();
+  EXPECT_EQ(fb->descriptors.rows, static_cast<int>(fb->size()));
+  FeatureExtractorOptions bad;
+  bad.orb_min_fast_threshold = 30;
+  EXPECT_EQ(FeatureExtractor::Create(bad, camera).status().code(), StatusCode::kInvalidArgument);
 }
 
 }  // namespace

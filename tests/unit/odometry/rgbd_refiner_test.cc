@@ -135,5 +135,49 @@ TEST(LocalMapTest, FusesDepthObservationsAndFollowsACorrection) {
   EXPECT_EQ(map.size(), 0u);
 }
 
+TEST(LocalMapTest, PointsKeepTheirIdsAndTakeTheBackEndsPositions) {
+  const CameraCalibration c = Camera();
+  LocalMap map(LocalMapOptions{}, c);
+  FrameFeatures f;
+  for (int k = 0; k < 3; ++k) {
+    f.keypoints.emplace_back(100.0f + 50 * k, 100.0f, 31.f);
+    f.points_camera.emplace_back(0.1 * k, 0, k == 2 ? 0.0 : 2.0);
+    f.has_depth.push_back(k != 2);
+  }
+  f.descriptors = cv::Mat(3, 32, CV_8U, cv::Scalar(7));
+  std::vector<int64_t> ids;
+  map.AddKeyframe(0, f, Eigen::Isometry3d::Identity(), {}, &ids);
+  ASSERT_EQ(ids.size(), 3u);
+  EXPECT_EQ(ids[2], -1);  // no depth: no point
+  EXPECT_NE(ids[0], ids[1]);
+  std::vector<int64_t> again;
+  map.AddKeyframe(1, f, Eigen::Isometry3d::Identity(), {1, -1, -1}, &again);
+  EXPECT_EQ(again[0], map.point(1).id);  // matched: that point's id
+  EXPECT_GT(again[1], ids[1]);           // unmatched with depth: a new point, a new id
+
+  // The back end's update: a known point moves, a forgotten one comes back (shifted by the
+  // correction that arrived after the update).
+  const size_t before = map.size();
+  LocalMapUpdate update;
+  update.ids = {ids[0], 999};
+  update.positions_world = {Eigen::Vector3d(0, 0, 2.5), Eigen::Vector3d(1, 1, 3)};
+  update.octaves = {0, 2};
+  update.descriptors = cv::Mat(2, 32, CV_8U, cv::Scalar(9));
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation().x() = 0.5;
+  map.Merge(update, T, 1);
+  ASSERT_EQ(map.size(), before + 1);
+  EXPECT_TRUE(map.point(0).position_world.isApprox(Eigen::Vector3d(0.5, 0, 2.5)));
+  EXPECT_EQ(map.point(before).id, 999);
+  EXPECT_TRUE(map.point(before).position_world.isApprox(Eigen::Vector3d(1.5, 1, 3)));
+  EXPECT_EQ(map.point(before).octave, 2);
+  EXPECT_EQ(map.descriptors().rows, static_cast<int>(map.size()));
+  EXPECT_EQ(map.descriptors().at<uint8_t>(static_cast<int>(before), 0), 9);
+  // A malformed update (sizes disagree) changes nothing.
+  update.octaves.pop_back();
+  map.Merge(update, Eigen::Isometry3d::Identity(), 1);
+  EXPECT_EQ(map.size(), before + 1);
+}
+
 }  // namespace
 }  // namespace semmap

@@ -1,0 +1,91 @@
+#include "core/slam/local_bundle_adjustment.h"
+
+#include <cmath>
+
+namespace semmap {
+
+Status LocalBundleAdjustmentOptions::Validate() const {
+  if (max_free_keyframes < 1) {
+    return InvalidArgumentError("local BA max_free_keyframes must be >= 1");
+  }
+  if (max_fixed_keyframes < 0) {
+    return InvalidArgumentError("local BA max_fixed_keyframes must be >= 0");
+  }
+  if (min_points < 1) return InvalidArgumentError("local BA min_points must be >= 1");
+  if (!std::isfinite(octave_scale) || octave_scale < 1) {
+    return InvalidArgumentError("local BA octave_scale must be >= 1");
+  }
+  SEMMAP_RETURN_IF_ERROR(points.Validate().WithContext("local BA"));
+  return solver.Validate().WithContext("local BA");
+}
+
+StatusOr<LocalBundleAdjustmentReport> RunLocalBundleAdjustment(
+    int keyframe, KeyframeGraph& graph, MapPoints& points,
+    const LocalBundleAdjustmentOptions& options) {
+  LocalBundleAdjustmentReport report;
+  const BundleAdjustmentWindow window =
+      points.LocalWindow(keyframe, options.max_free_keyframes, options.max_fixed_keyframes);
+  if (static_cast<int>(window.points.size()) < options.min_points) return report;
+
+  std::vector<BundleAdjustmentKeyframe> keyframes;
+  const auto add_keyframe = [&](int k, bool fixed) {
+    const GraphKeyframe& node = graph.node(k);
+    keyframes.push_back({k, node.T_world_keyframe, *node.camera, fixed});
+  };
+  // Without fixed keyframes the oldest free one holds the gauge (BundleAdjust fixes the first).
+  for (int k : window.fixed_keyframes) add_keyframe(k, true);
+  for (int k : window.free_keyframes) add_keyframe(k, false);
+  std::vector<bool> in_window(static_cast<size_t>(graph.size()), false);
+  for (const BundleAdjustmentKeyframe& k : keyframes) in_window[static_cast<size_t>(k.id)] = true;
+
+  std::vector<BundleAdjustmentPoint> ba_points;
+  std::vector<BundleAdjustmentObservation> observations;
+  ba_points.reserve(window.points.size());
+  for (int64_t id : window.points) {
+    const MapPointState* p = points.Find(id);
+    ba_points.push_back({id, p->position_world, false});
+    for (const MapPointObservation& o : p->observations) {
+      if (!in_window[static_cast<size_t>(o.keyframe)]) continue;
+      const FrameFeatures& f = *graph.node(o.keyframe).features;
+      const size_t kp = static_cast<size_t>(o.keypoint);
+      BundleAdjustmentObservation obs;
+      obs.keyframe_id = o.keyframe;
+      obs.point_id = id;
+      obs.pixel = Eigen::Vector2d(f.keypoints[kp].pt.x, f.keypoints[kp].pt.y);
+      obs.pixel_sigma = std::pow(options.octave_scale, f.keypoints[kp].octave);
+      if (f.has_depth[kp] && f.points_camera[kp].z() > 0) {
+        obs.inverse_depth = 1 / f.points_camera[kp].z();
+      }
+      observations.push_back(obs);
+    }
+  }
+  StatusOr<BundleAdjustmentResult> result =
+      BundleAdjust(keyframes, ba_points, observations, options.solver);
+  if (!result.ok()) return result.status();
+
+  report.ran = true;
+  report.free_keyframes = static_cast<int>(window.free_keyframes.size());
+  report.fixed_keyframes = static_cast<int>(window.fixed_keyframes.size());
+  report.points = static_cast<int>(ba_points.size());
+  report.observations = static_cast<int>(observations.size());
+  report.solve_ms = result->solve_ms;
+  report.hit_time_limit = result->hit_time_limit;
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    if (keyframes[i].fixed) continue;
+    const int k = static_cast<int>(keyframes[i].id);
+    graph.SetPose(k, result->T_world_keyframe[i].second);
+    report.moved_keyframes.push_back(k);
+  }
+  for (const auto& [id, position] : result->position_world) points.SetPosition(id, position);
+  for (size_t i = 0; i < observations.size(); ++i) {
+    if (!result->outlier[i]) continue;
+    points.RemoveObservation(observations[i].point_id,
+                             static_cast<int>(observations[i].keyframe_id));
+    ++report.outliers_removed;
+  }
+  const GraphKeyframe& newest = graph.node(keyframe);
+  report.points_culled = points.Cull(newest.session_id, newest.index_in_session);
+  return report;
+}
+
+}  // namespace semmap

@@ -1,0 +1,52 @@
+// Local bundle adjustment after each keyframe (the back end's thread, off the tracking path):
+// the new keyframe and its most covisible keyframes are free, the points they observe are free,
+// and the other keyframes that see those points hold the solution in place (fixed). The
+// refined poses go back into the keyframe graph and the points into the map points;
+// observations the solver rejects are removed and points too few keyframes confirm are culled.
+// The caller moves frames, layers and trackers after the keyframes, as after a pose-graph
+// optimisation.
+#pragma once
+
+#include <vector>
+
+#include "common/status.h"
+#include "core/slam/bundle_adjustment.h"
+#include "core/slam/keyframe_graph.h"
+#include "core/slam/map_points.h"
+
+namespace semmap {
+
+struct LocalBundleAdjustmentOptions {
+  bool enabled = true;
+  int max_free_keyframes = 8;    // the new keyframe and its most covisible ones
+  int max_fixed_keyframes = 16;  // other keyframes observing the window's points
+  // A window with fewer points than this is not worth a solve.
+  int min_points = 20;
+  double octave_scale = 1.2;  // keypoint sigma = octave_scale^octave pixels
+  MapPointsOptions points;
+  BundleAdjustmentOptions solver = [] {
+    BundleAdjustmentOptions o;
+    o.max_solve_seconds = 0.05;  // per solve (two per run): the back end must keep up
+    return o;
+  }();
+
+  Status Validate() const;
+};
+
+struct LocalBundleAdjustmentReport {
+  bool ran = false;
+  int free_keyframes = 0, fixed_keyframes = 0, points = 0, observations = 0;
+  int outliers_removed = 0;
+  int points_culled = 0;
+  double solve_ms = 0;
+  bool hit_time_limit = false;
+  std::vector<int> moved_keyframes;  // free keyframes (graph indices) whose pose was replaced
+};
+
+// Runs the local BA of keyframe `keyframe` and applies it to `graph` and `points`.
+// FAILED_PRECONDITION when the solver fails (graph and points unchanged).
+StatusOr<LocalBundleAdjustmentReport> RunLocalBundleAdjustment(
+    int keyframe, KeyframeGraph& graph, MapPoints& points,
+    const LocalBundleAdjustmentOptions& options);
+
+}  // namespace semmap

@@ -1,0 +1,176 @@
+#include "core/slam/map_points.h"
+
+#include <algorithm>
+
+namespace semmap {
+
+Status MapPointsOptions::Validate() const {
+  if (min_observations < 1) return InvalidArgumentError("map points min_observations must be >= 1");
+  if (cull_age_keyframes < 1) {
+    return InvalidArgumentError("map points cull_age_keyframes must be >= 1");
+  }
+  return OkStatus();
+}
+
+int MapPoints::AddKeyframe(int64_t session_id, int keyframe, int index_in_session,
+                           const FrameFeatures& features, const Eigen::Isometry3d& T_world_keyframe,
+                           const std::vector<int64_t>& tracker_point_ids) {
+  if (keyframe < 0) return 0;
+  if (points_of_keyframe_.size() <= static_cast<size_t>(keyframe)) {
+    points_of_keyframe_.resize(static_cast<size_t>(keyframe) + 1);
+  }
+  std::vector<int64_t>& seen = points_of_keyframe_[static_cast<size_t>(keyframe)];
+  const size_t n = std::min(tracker_point_ids.size(), features.size());
+  int added = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const int64_t tracker_id = tracker_point_ids[k];
+    if (tracker_id < 0) continue;
+    const auto known = by_tracker_id_.find({session_id, tracker_id});
+    MapPointState* point = nullptr;
+    if (known != by_tracker_id_.end()) {
+      point = &points_.at(known->second);
+      // One observation per keyframe: a second keypoint naming the point is a duplicate match.
+      if (!point->observations.empty() && point->observations.back().keyframe == keyframe) {
+        continue;
+      }
+    } else {
+      if (!features.has_depth[k]) continue;  // nothing to place it by
+      const int64_t id = next_id_++;
+      MapPointState& created = points_[id];
+      created.id = id;
+      created.position_world = T_world_keyframe * features.points_camera[k];
+      created.session_id = session_id;
+      created.tracker_id = tracker_id;
+      created.created_in_session = index_in_session;
+      by_tracker_id_.emplace(std::make_pair(session_id, tracker_id), id);
+      recent_[session_id].push_back(id);
+      point = &created;
+    }
+    point->observations.push_back({keyframe, static_cast<int>(k)});
+    seen.push_back(point->id);
+    ++num_observations_;
+    ++added;
+  }
+  return added;
+}
+
+std::vector<std::pair<int, int>> MapPoints::Covisible(int keyframe) const {
+  std::map<int, int> shared;
+  for (int64_t id : PointsOf(keyframe)) {
+    for (const MapPointObservation& o : points_.at(id).observations) {
+      if (o.keyframe != keyframe) ++shared[o.keyframe];
+    }
+  }
+  std::vector<std::pair<int, int>> result(shared.begin(), shared.end());
+  std::stable_sort(result.begin(), result.end(),
+                   [](const auto& a, const auto& b) { return a.second > b.second; });
+  return result;
+}
+
+BundleAdjustmentWindow MapPoints::LocalWindow(int keyframe, int max_free, int max_fixed) const {
+  BundleAdjustmentWindow window;
+  if (max_free < 1) return window;
+  window.free_keyframes.push_back(keyframe);
+  for (const auto& [other, count] : Covisible(keyframe)) {
+    if (static_cast<int>(window.free_keyframes.size()) >= max_free) break;
+    window.free_keyframes.push_back(other);
+  }
+  std::sort(window.free_keyframes.begin(), window.free_keyframes.end());
+  const auto is_free = [&](int k) {
+    return std::binary_search(window.free_keyframes.begin(), window.free_keyframes.end(), k);
+  };
+  std::map<int, int> outside;  // keyframe -> observations of window points
+  for (int k : window.free_keyframes) {
+    for (int64_t id : PointsOf(k)) window.points.push_back(id);
+  }
+  std::sort(window.points.begin(), window.points.end());
+  window.points.erase(std::unique(window.points.begin(), window.points.end()), window.points.end());
+  for (int64_t id : window.points) {
+    for (const MapPointObservation& o : points_.at(id).observations) {
+      if (!is_free(o.keyframe)) ++outside[o.keyframe];
+    }
+  }
+  std::vector<std::pair<int, int>> ranked(outside.begin(), outside.end());
+  std::stable_sort(ranked.begin(), ranked.end(),
+                   [](const auto& a, const auto& b) { return a.second > b.second; });
+  for (const auto& [k, count] : ranked) {
+    if (static_cast<int>(window.fixed_keyframes.size()) >= max_fixed) break;
+    window.fixed_keyframes.push_back(k);
+  }
+  std::sort(window.fixed_keyframes.begin(), window.fixed_keyframes.end());
+  return window;
+}
+
+const MapPointState* MapPoints::Find(int64_t id) const {
+  const auto it = points_.find(id);
+  return it == points_.end() ? nullptr : &it->second;
+}
+
+const std::vector<int64_t>& MapPoints::PointsOf(int keyframe) const {
+  static const std::vector<int64_t> kNone;
+  if (keyframe < 0 || static_cast<size_t>(keyframe) >= points_of_keyframe_.size()) return kNone;
+  return points_of_keyframe_[static_cast<size_t>(keyframe)];
+}
+
+void MapPoints::SetPosition(int64_t id, const Eigen::Vector3d& position_world) {
+  const auto it = points_.find(id);
+  if (it != points_.end()) it->second.position_world = position_world;
+}
+
+void MapPoints::MoveWithKeyframes(const std::map<int, Eigen::Isometry3d>& T_new_old) {
+  if (T_new_old.empty()) return;
+  for (auto& [id, point] : points_) {
+    if (point.observations.empty()) continue;
+    const auto T = T_new_old.find(point.observations.front().keyframe);
+    if (T != T_new_old.end()) point.position_world = T->second * point.position_world;
+  }
+}
+
+void MapPoints::RemoveObservation(int64_t id, int keyframe) {
+  const auto it = points_.find(id);
+  if (it == points_.end()) return;
+  auto& observations = it->second.observations;
+  const auto o = std::find_if(observations.begin(), observations.end(),
+                              [&](const MapPointObservation& x) { return x.keyframe == keyframe; });
+  if (o == observations.end()) return;
+  observations.erase(o);
+  --num_observations_;
+  auto& of_keyframe = points_of_keyframe_[static_cast<size_t>(keyframe)];
+  of_keyframe.erase(std::remove(of_keyframe.begin(), of_keyframe.end(), id), of_keyframe.end());
+  if (observations.empty()) Erase(id);
+}
+
+int MapPoints::Cull(int64_t session_id, int newest_in_session) {
+  const auto recent = recent_.find(session_id);
+  if (recent == recent_.end()) return 0;
+  int culled = 0;
+  std::vector<int64_t> still_recent;
+  for (int64_t id : recent->second) {
+    const auto it = points_.find(id);
+    if (it == points_.end()) continue;  // already gone
+    if (newest_in_session - it->second.created_in_session < options_.cull_age_keyframes) {
+      still_recent.push_back(id);
+      continue;
+    }
+    if (static_cast<int>(it->second.observations.size()) < options_.min_observations) {
+      Erase(id);
+      ++culled;
+    }
+  }
+  recent->second = std::move(still_recent);
+  return culled;
+}
+
+void MapPoints::Erase(int64_t id) {
+  const auto it = points_.find(id);
+  if (it == points_.end()) return;
+  for (const MapPointObservation& o : it->second.observations) {
+    auto& of_keyframe = points_of_keyframe_[static_cast<size_t>(o.keyframe)];
+    of_keyframe.erase(std::remove(of_keyframe.begin(), of_keyframe.end(), id), of_keyframe.end());
+    --num_observations_;
+  }
+  by_tracker_id_.erase({it->second.session_id, it->second.tracker_id});
+  points_.erase(it);
+}
+
+}  // namespace semmap

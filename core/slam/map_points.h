@@ -1,0 +1,106 @@
+// The back end's map points: 3D points in the world frame, each observed by several keyframes.
+// Trackers name them: a keyframe keypoint with depth that matched no point of the tracker's
+// local map starts a point (placed by its depth), and later keyframes' inlier matches to that
+// point become its observations. Bundle adjustment (bundle_adjustment.h) refines their
+// positions together with the keyframe poses; observations BA rejects are removed, and points
+// that too few keyframes ever confirm are culled (ORB-SLAM2's recent-point culling).
+// Covisibility (keyframes sharing points) chooses each local BA window. Single-threaded: the
+// back end's worker owns it.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <map>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "common/status.h"
+#include "core/sensor/frame_features.h"
+
+namespace semmap {
+
+struct MapPointsOptions {
+  // A point observed by fewer keyframes than this once `cull_age_keyframes` keyframes of its
+  // session have followed the one that created it is removed (a point only its creator saw
+  // is bad depth, a moving object or repeated texture).
+  int min_observations = 2;
+  int cull_age_keyframes = 3;
+
+  Status Validate() const;
+};
+
+struct MapPointObservation {
+  int keyframe = 0;  // graph node index
+  int keypoint = 0;  // index into that keyframe's features
+};
+
+struct MapPointState {
+  int64_t id = 0;
+  Eigen::Vector3d position_world = Eigen::Vector3d::Zero();
+  std::vector<MapPointObservation> observations;  // at most one per keyframe
+  int64_t session_id = 0;
+  int64_t tracker_id = 0;      // the session tracker's id for it
+  int created_in_session = 0;  // index_in_session of the keyframe that created it
+};
+
+// Keyframes whose poses and points a local bundle adjustment solves for (free), and keyframes
+// that also see those points but stay where they are (fixed), as graph node indices.
+struct BundleAdjustmentWindow {
+  std::vector<int> free_keyframes;   // ascending
+  std::vector<int> fixed_keyframes;  // ascending
+  std::vector<int64_t> points;       // observed by a free keyframe
+};
+
+class MapPoints {
+ public:
+  explicit MapPoints(MapPointsOptions options = {}) : options_(options) {}
+
+  // Keyframe `keyframe` (graph node, the `index_in_session`-th of its session) at
+  // T_world_keyframe. `tracker_point_ids` (empty, or one per keypoint): the session tracker's
+  // id of the point each keypoint observes, -1 for none. A known id gains the observation; an
+  // unknown id starts a point at T_world_keyframe * points_camera[k] when the keypoint has
+  // depth (else it is ignored). A second keypoint of the keyframe naming the same point is
+  // ignored. Returns the number of observations added.
+  int AddKeyframe(int64_t session_id, int keyframe, int index_in_session,
+                  const FrameFeatures& features, const Eigen::Isometry3d& T_world_keyframe,
+                  const std::vector<int64_t>& tracker_point_ids);
+
+  // The keyframes sharing points with `keyframe`, with the number shared, most first.
+  std::vector<std::pair<int, int>> Covisible(int keyframe) const;
+
+  // `keyframe`, its max_free - 1 most covisible keyframes (free), the points the free ones
+  // observe, and up to max_fixed other keyframes observing those points (fixed), those
+  // observing most of them first.
+  BundleAdjustmentWindow LocalWindow(int keyframe, int max_free, int max_fixed) const;
+
+  const MapPointState* Find(int64_t id) const;
+  const std::vector<int64_t>& PointsOf(int keyframe) const;  // empty for an unknown keyframe
+  void SetPosition(int64_t id, const Eigen::Vector3d& position_world);
+  // A correction of keyframe poses (T_new_old by graph node): each point moves rigidly with
+  // its oldest observing keyframe, when that one is in the map.
+  void MoveWithKeyframes(const std::map<int, Eigen::Isometry3d>& T_new_old);
+  // Removes the observation; a point left without observations is removed.
+  void RemoveObservation(int64_t id, int keyframe);
+  // Culls the session's points that are old enough and still observed too rarely (options);
+  // `newest_in_session`: index_in_session of the session's newest keyframe. Returns how many.
+  int Cull(int64_t session_id, int newest_in_session);
+
+  size_t size() const { return points_.size(); }
+  size_t num_observations() const { return num_observations_; }
+
+ private:
+  void Erase(int64_t id);
+
+  MapPointsOptions options_;
+  std::unordered_map<int64_t, MapPointState> points_;
+  std::map<std::pair<int64_t, int64_t>, int64_t> by_tracker_id_;  // (session, tracker id) -> id
+  std::vector<std::vector<int64_t>> points_of_keyframe_;          // by graph node
+  // Points that may still be culled, by session (removed once they pass the age test).
+  std::map<int64_t, std::vector<int64_t>> recent_;
+  int64_t next_id_ = 0;
+  size_t num_observations_ = 0;
+};
+
+}  // namespace semmap

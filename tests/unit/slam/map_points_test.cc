@@ -1,0 +1,121 @@
+#include "core/slam/map_points.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+namespace semmap {
+namespace {
+
+// n keypoints; keypoint k has depth (a point 2 m ahead) unless k is in `no_depth`.
+FrameFeatures Features(int n, std::vector<int> no_depth = {}) {
+  FrameFeatures f;
+  for (int k = 0; k < n; ++k) {
+    f.keypoints.emplace_back(static_cast<float>(10 * k), 5.0f, 31.0f);
+    const bool depth = std::find(no_depth.begin(), no_depth.end(), k) == no_depth.end();
+    f.points_camera.emplace_back(0.1 * k, 0, depth ? 2.0 : 0.0);
+    f.has_depth.push_back(depth);
+  }
+  f.descriptors = cv::Mat::zeros(n, 32, CV_8U);
+  return f;
+}
+
+Eigen::Isometry3d At(double x) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation().x() = x;
+  return T;
+}
+
+TEST(MapPointsTest, KeyframesCreateAndObservePointsByTrackerId) {
+  MapPoints points;
+  const FrameFeatures f = Features(4, /*no_depth=*/{3});
+  // Keyframe 0 starts points 10, 11, 12 (13 has no depth: nothing to place it by).
+  EXPECT_EQ(points.AddKeyframe(1, 0, 0, f, At(1), {10, 11, 12, 13}), 3);
+  ASSERT_EQ(points.size(), 3u);
+  // Keyframe 1 sees 11 and 12 again (12 twice: the second is ignored) and starts 20.
+  EXPECT_EQ(points.AddKeyframe(1, 1, 1, f, At(5), {11, 12, 12, 20}), 2);
+  EXPECT_EQ(points.size(), 3u);  // 20 would need depth at keypoint 3
+  EXPECT_EQ(points.num_observations(), 5u);
+  const std::vector<int64_t>& of_1 = points.PointsOf(1);
+  ASSERT_EQ(of_1.size(), 2u);
+  const MapPointState* p = points.Find(of_1[0]);
+  ASSERT_NE(p, nullptr);
+  EXPECT_EQ(p->tracker_id, 11);
+  // Placed by its first keyframe: T_world_keyframe * points_camera.
+  EXPECT_TRUE(p->position_world.isApprox(Eigen::Vector3d(1.1, 0, 2)));
+  ASSERT_EQ(p->observations.size(), 2u);
+  EXPECT_EQ(p->observations[1].keyframe, 1);
+  EXPECT_EQ(p->observations[1].keypoint, 0);
+  // The same tracker id in another session is another point.
+  EXPECT_EQ(points.AddKeyframe(2, 2, 0, f, At(0), {11, -1, -1, -1}), 1);
+  EXPECT_EQ(points.size(), 4u);
+  EXPECT_TRUE(points.PointsOf(7).empty());
+}
+
+TEST(MapPointsTest, CovisibilityAndTheLocalWindow) {
+  MapPoints points;
+  const FrameFeatures f = Features(6);
+  points.AddKeyframe(1, 0, 0, f, At(0), {0, 1, 2, 3, 4, 5});
+  points.AddKeyframe(1, 1, 1, f, At(0), {0, 1, 2, 3, -1, -1});
+  points.AddKeyframe(1, 2, 2, f, At(0), {2, 3, 6, 7, 8, -1});
+  points.AddKeyframe(1, 3, 3, f, At(0), {7, 8, 9, -1, -1, -1});
+  const auto covisible = points.Covisible(2);
+  ASSERT_EQ(covisible.size(), 3u);
+  EXPECT_EQ(covisible[0].second, 2);  // keyframes 0 and 1 share 2, 3; keyframe 3 shares 7, 8
+  const BundleAdjustmentWindow window = points.LocalWindow(3, /*max_free=*/2, /*max_fixed=*/1);
+  EXPECT_EQ(window.free_keyframes, (std::vector<int>{2, 3}));
+  // Points of the free keyframes: 2, 3, 6, 7, 8, 9; keyframes 0 and 1 both see 2 and 3: one
+  // of them is kept as fixed.
+  EXPECT_EQ(window.points.size(), 6u);
+  ASSERT_EQ(window.fixed_keyframes.size(), 1u);
+  EXPECT_LE(window.fixed_keyframes[0], 1);
+}
+
+TEST(MapPointsTest, CullingRemovesPointsTooFewKeyframesConfirm) {
+  MapPointsOptions options;
+  options.min_observations = 2;
+  options.cull_age_keyframes = 2;
+  MapPoints points(options);
+  const FrameFeatures f = Features(3);
+  points.AddKeyframe(1, 0, 0, f, At(0), {0, 1, 2});
+  points.AddKeyframe(1, 1, 1, f, At(0), {0, -1, -1});
+  EXPECT_EQ(points.Cull(1, 1), 0);  // too young to judge
+  points.AddKeyframe(1, 2, 2, f, At(0), {0, 1, -1});
+  EXPECT_EQ(points.Cull(1, 2), 1);  // point 2: only its creator saw it
+  EXPECT_EQ(points.size(), 2u);
+  EXPECT_EQ(points.PointsOf(0).size(), 2u);
+  EXPECT_EQ(points.Cull(1, 5), 0);  // judged once: kept for good
+  // A removed observation; a point left with none is gone.
+  const int64_t id = points.PointsOf(1)[0];
+  points.RemoveObservation(id, 0);
+  points.RemoveObservation(id, 1);
+  ASSERT_NE(points.Find(id), nullptr);
+  points.RemoveObservation(id, 2);
+  EXPECT_EQ(points.Find(id), nullptr);
+  EXPECT_EQ(points.size(), 1u);
+  EXPECT_EQ(points.num_observations(), 2u);
+}
+
+TEST(MapPointsTest, PointsMoveWithTheirOldestKeyframe) {
+  MapPoints points;
+  const FrameFeatures f = Features(2);
+  points.AddKeyframe(1, 0, 0, f, At(0), {0, -1});
+  points.AddKeyframe(1, 1, 1, f, At(1), {0, 1});
+  const int64_t first = points.PointsOf(0)[0], second = points.PointsOf(1)[1];
+  points.MoveWithKeyframes({{1, At(0.5)}});  // keyframe 1 moved by 0.5 m
+  EXPECT_TRUE(points.Find(first)->position_world.isApprox(Eigen::Vector3d(0, 0, 2)));
+  EXPECT_TRUE(points.Find(second)->position_world.isApprox(Eigen::Vector3d(1.6, 0, 2)));
+}
+
+TEST(MapPointsTest, OptionsAreValidated) {
+  MapPointsOptions options;
+  EXPECT_TRUE(options.Validate().ok());
+  options.min_observations = 0;
+  EXPECT_EQ(options.Validate().code(), StatusCode::kInvalidArgument);
+  options = {};
+  options.cull_age_keyframes = 0;
+  EXPECT_EQ(options.Validate().code(), StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace semmap
