@@ -89,6 +89,11 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
     return semmap::InvalidArgumentError("--local-ba must be on or off");
   }
   options->ingest.slam.local_ba.enabled = local_ba == "on";
+  const std::string final_ba = args.Get("final-ba", "off");
+  if (final_ba != "on" && final_ba != "off") {
+    return semmap::InvalidArgumentError("--final-ba must be on or off");
+  }
+  options->ingest.slam.local_ba.final_ba = final_ba == "on";
   const std::string layers = args.Get("map-layers", "on");
   if (layers != "on" && layers != "off") {
     return semmap::InvalidArgumentError("--map-layers must be on or off");
@@ -181,6 +186,9 @@ int main(int argc, char** argv) {
   args.AddFlag("local-ba", "on|off",
                "bundle-adjust each RGBD keyframe with its covisible keyframes and their map "
                "points, and track against the refined points (default on)");
+  args.AddFlag("final-ba", "on|off",
+               "when an RGBD session ends, bundle-adjust every keyframe and map point of its map "
+               "(needs --local-ba on; default off)");
   args.AddFlag("map-layers", "on|off",
                "build the 3D layers (OctoMap occupancy, coloured cloud) from keyframes with depth "
                "(default on)");

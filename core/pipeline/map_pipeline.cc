@@ -70,7 +70,8 @@ Status MapPipeline::FinishSession(int64_t session_id, MapSessionReport* report) 
     for (const LoopClosureInfo& loop : stats.loops) {
       if (loop.query_session_id == session_id) ++report->loop_closures;
     }
-    report->stages = {stats.keyframe_ms, stats.optimise_ms};
+    report->stages = {stats.keyframe_ms, stats.optimise_ms, stats.local_ba_ms};
+    if (stats.final_ba_ms.count > 0) report->stages.push_back(stats.final_ba_ms);
     report->backend = std::move(stats);
   }
   // After the back end's drain: its last corrections are queued to the consumers already.

@@ -1,5 +1,6 @@
 #include "core/slam/local_bundle_adjustment.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace semmap {
@@ -15,16 +16,22 @@ Status LocalBundleAdjustmentOptions::Validate() const {
   if (!std::isfinite(octave_scale) || octave_scale < 1) {
     return InvalidArgumentError("local BA octave_scale must be >= 1");
   }
+  if (!std::isfinite(final_ba_max_solve_seconds) || final_ba_max_solve_seconds < 0) {
+    return InvalidArgumentError("final BA max solve seconds must be >= 0");
+  }
   SEMMAP_RETURN_IF_ERROR(points.Validate().WithContext("local BA"));
   return solver.Validate().WithContext("local BA");
 }
 
-StatusOr<LocalBundleAdjustmentReport> RunLocalBundleAdjustment(
-    int keyframe, KeyframeGraph& graph, MapPoints& points,
-    const LocalBundleAdjustmentOptions& options) {
+namespace {
+
+// Bundle-adjusts `window` (fixed keyframes held, the first free one too when none is fixed) and
+// applies the result to `graph` and `points`.
+StatusOr<LocalBundleAdjustmentReport> AdjustWindow(const BundleAdjustmentWindow& window,
+                                                   KeyframeGraph& graph, MapPoints& points,
+                                                   const LocalBundleAdjustmentOptions& options,
+                                                   const BundleAdjustmentOptions& solver) {
   LocalBundleAdjustmentReport report;
-  const BundleAdjustmentWindow window =
-      points.LocalWindow(keyframe, options.max_free_keyframes, options.max_fixed_keyframes);
   if (static_cast<int>(window.points.size()) < options.min_points) return report;
 
   std::vector<BundleAdjustmentKeyframe> keyframes;
@@ -37,7 +44,6 @@ StatusOr<LocalBundleAdjustmentReport> RunLocalBundleAdjustment(
   for (int k : window.free_keyframes) add_keyframe(k, false);
   std::vector<bool> in_window(static_cast<size_t>(graph.size()), false);
   for (const BundleAdjustmentKeyframe& k : keyframes) in_window[static_cast<size_t>(k.id)] = true;
-
   std::vector<BundleAdjustmentPoint> ba_points;
   std::vector<BundleAdjustmentObservation> observations;
   ba_points.reserve(window.points.size());
@@ -60,7 +66,7 @@ StatusOr<LocalBundleAdjustmentReport> RunLocalBundleAdjustment(
     }
   }
   StatusOr<BundleAdjustmentResult> result =
-      BundleAdjust(keyframes, ba_points, observations, options.solver);
+      BundleAdjust(keyframes, ba_points, observations, solver);
   if (!result.ok()) return result.status();
 
   report.ran = true;
@@ -83,9 +89,44 @@ StatusOr<LocalBundleAdjustmentReport> RunLocalBundleAdjustment(
                              static_cast<int>(observations[i].keyframe_id));
     ++report.outliers_removed;
   }
-  const GraphKeyframe& newest = graph.node(keyframe);
-  report.points_culled = points.Cull(newest.session_id, newest.index_in_session);
   return report;
+}
+
+}  // namespace
+
+StatusOr<LocalBundleAdjustmentReport> RunLocalBundleAdjustment(
+    int keyframe, KeyframeGraph& graph, MapPoints& points,
+    const LocalBundleAdjustmentOptions& options) {
+  const BundleAdjustmentWindow window =
+      points.LocalWindow(keyframe, options.max_free_keyframes, options.max_fixed_keyframes);
+  SEMMAP_ASSIGN_OR_RETURN(LocalBundleAdjustmentReport report,
+                          AdjustWindow(window, graph, points, options, options.solver));
+  if (report.ran) {
+    const GraphKeyframe& newest = graph.node(keyframe);
+    report.points_culled = points.Cull(newest.session_id, newest.index_in_session);
+  }
+  return report;
+}
+
+StatusOr<LocalBundleAdjustmentReport> RunGlobalBundleAdjustment(
+    KeyframeGraph& graph, MapPoints& points, const LocalBundleAdjustmentOptions& options,
+    double max_solve_seconds) {
+  BundleAdjustmentWindow window;
+  for (int k = 0; k < graph.size(); ++k) {
+    if (points.PointsOf(k).empty()) continue;
+    // The oldest keyframe of each connected component keeps that component's frame.
+    const bool oldest = std::none_of(window.free_keyframes.begin(), window.free_keyframes.end(),
+                                     [&](int f) { return graph.SameComponent(f, k); }) &&
+                        std::none_of(window.fixed_keyframes.begin(), window.fixed_keyframes.end(),
+                                     [&](int f) { return graph.SameComponent(f, k); });
+    (oldest ? window.fixed_keyframes : window.free_keyframes).push_back(k);
+    for (int64_t id : points.PointsOf(k)) window.points.push_back(id);
+  }
+  std::sort(window.points.begin(), window.points.end());
+  window.points.erase(std::unique(window.points.begin(), window.points.end()), window.points.end());
+  BundleAdjustmentOptions solver = options.solver;
+  solver.max_solve_seconds = max_solve_seconds;
+  return AdjustWindow(window, graph, points, options, solver);
 }
 
 }  // namespace semmap

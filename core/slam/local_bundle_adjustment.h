@@ -23,6 +23,10 @@ struct LocalBundleAdjustmentOptions {
   // A window with fewer points than this is not worth a solve.
   int min_points = 20;
   double octave_scale = 1.2;  // keypoint sigma = octave_scale^octave pixels
+  // A global BA over every keyframe and point when a session ends (its Drain), each of its two
+  // solves bounded by final_ba_max_solve_seconds (0: unbounded).
+  bool final_ba = false;
+  double final_ba_max_solve_seconds = 10;
   MapPointsOptions points;
   BundleAdjustmentOptions solver = [] {
     BundleAdjustmentOptions o;
@@ -48,5 +52,12 @@ struct LocalBundleAdjustmentReport {
 StatusOr<LocalBundleAdjustmentReport> RunLocalBundleAdjustment(
     int keyframe, KeyframeGraph& graph, MapPoints& points,
     const LocalBundleAdjustmentOptions& options);
+
+// Global BA (a session's end, --final-ba): every keyframe with map points and every point,
+// the oldest keyframe of each graph component fixed; each solve bounded by max_solve_seconds
+// (0: unbounded). No culling.
+StatusOr<LocalBundleAdjustmentReport> RunGlobalBundleAdjustment(
+    KeyframeGraph& graph, MapPoints& points, const LocalBundleAdjustmentOptions& options,
+    double max_solve_seconds);
 
 }  // namespace semmap

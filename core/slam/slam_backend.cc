@@ -259,6 +259,7 @@ SlamBackendStats SlamBackend::stats() const {
   s.keyframe_ms = keyframe_ms_.Summarize();
   s.optimise_ms = optimise_ms_.Summarize();
   s.local_ba_ms = local_ba_ms_.Summarize();
+  s.final_ba_ms = final_ba_ms_.Summarize();
   return s;
 }
 
@@ -327,6 +328,7 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
     const GraphKeyframe& added = graph_.node(index);
     map_points_.AddKeyframe(added.session_id, index, added.index_in_session, *added.features,
                             added.T_world_keyframe, event.point_ids);
+    keyframes_since_final_ba_ = true;
     LocalBundleAdjust(index);
   }
 
@@ -640,8 +642,39 @@ void SlamBackend::SubmitPending() {
   pending_ = WriteBatch{};
 }
 
+void SlamBackend::FinalBundleAdjust() {
+  keyframes_since_final_ba_ = false;
+  PosesBefore before;
+  for (int i = 0; i < graph_.size(); ++i) before.emplace_back(i, graph_.node(i).T_world_keyframe);
+  const Clock::time_point t0 = Clock::now();
+  StatusOr<LocalBundleAdjustmentReport> report = RunGlobalBundleAdjustment(
+      graph_, map_points_, options_.local_ba, options_.local_ba.final_ba_max_solve_seconds);
+  if (!report.ok()) {
+    LogWarning("{}: final bundle adjustment failed, poses kept: {}", name(),
+               report.status().ToString());
+    std::lock_guard lock(mutex_);
+    ++stats_.local_ba_failures;
+    return;
+  }
+  if (!report->ran) return;
+  ApplyMovedPoses(before, /*move_points=*/false);
+  LogInfo(
+      "{}: final bundle adjustment: {} keyframes ({} fixed), {} points, {} observations "
+      "({} outliers removed), {:.0f} ms{}",
+      name(), report->free_keyframes + report->fixed_keyframes, report->fixed_keyframes,
+      report->points, report->observations, report->outliers_removed, report->solve_ms,
+      report->hit_time_limit ? ", stopped at its time bound" : "");
+  std::lock_guard lock(mutex_);
+  ++stats_.final_ba_runs;
+  stats_.ba_outliers_removed += static_cast<uint64_t>(report->outliers_removed);
+  final_ba_ms_.Add(MillisecondsSince(t0));
+}
+
 Status SlamBackend::OnFlush() {
   if (deferred_loops_ > 0) OptimiseAndCorrect();  // a finished session gets its final poses
+  if (options_.local_ba.enabled && options_.local_ba.final_ba && keyframes_since_final_ba_) {
+    FinalBundleAdjust();
+  }
   SubmitPending();
   return writes_.WaitAndTakeError();
 }

@@ -166,6 +166,7 @@ struct SlamBackendStats {
   uint64_t local_ba_time_limited = 0;  // a solve stopped at its time bound
   uint64_t local_ba_shrunk = 0;        // keyframes waiting: half the window
   uint64_t local_ba_skipped = 0;       // keyframes waiting: no run
+  uint64_t final_ba_runs = 0;
   uint64_t ba_outliers_removed = 0;
   uint64_t map_points_culled = 0;
   size_t map_points = 0;
@@ -173,6 +174,7 @@ struct SlamBackendStats {
   size_t queue_high_water = 0;
   LatencySummary keyframe_ms;  // worker time per keyframe (BA, candidates, verification)
   LatencySummary local_ba_ms;
+  LatencySummary final_ba_ms;
   LatencySummary optimise_ms;
   std::vector<LoopClosureInfo> loops;
 };
@@ -258,6 +260,7 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   // optimised graph still contradicts it (max_loop_chi2).
   bool OptimiseAndCorrect(bool check_new_loop = false);
   void LocalBundleAdjust(int index);
+  void FinalBundleAdjust();  // options_.local_ba.final_ba
   // Sends the session of keyframe `index` the points its tracker should match against.
   void PublishTrackingMap(int index);
   // Publishes the moves of the nodes in `before` that moved: the layers' listener, stored
@@ -286,7 +289,8 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   std::map<std::pair<int64_t, int64_t>, std::vector<size_t>> anchors_of_keyframe_;
   MapPoints map_points_;
   std::atomic<int> queued_keyframes_{0};  // added, not yet handled
-  int deferred_loops_ = 0;                // consistent loops added since the last optimisation
+  bool keyframes_since_final_ba_ = false;
+  int deferred_loops_ = 0;  // consistent loops added since the last optimisation
 
   PendingWrites writes_;      // the worker's batches, and the errors Drain reports
   mutable std::mutex mutex_;  // sessions_, stats_
@@ -296,6 +300,7 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   LatencyStats keyframe_ms_{"backend_keyframe"};
   LatencyStats optimise_ms_{"optimise"};
   LatencyStats local_ba_ms_{"local_ba"};
+  LatencyStats final_ba_ms_{"final_ba"};
 };
 
 }  // namespace semmap

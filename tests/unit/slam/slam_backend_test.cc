@@ -413,6 +413,25 @@ TEST_F(SlamBackendTest, LocalBundleAdjustmentPullsADriftingPathTowardsTheTruth) 
   EXPECT_LT(after, before / 4);
 }
 
+// The final BA at the session's end (Drain) adjusts every keyframe and point once more.
+TEST_F(SlamBackendTest, FinalBundleAdjustmentRunsWhenTheSessionDrains) {
+  const std::vector<Keyframe> kfs = RenderKeyframes(kLapFrames / 2);
+  SlamBackendOptions options;
+  options.local_ba.final_ba = true;
+  std::unique_ptr<SlamBackend> backend = Start(options);
+  const std::vector<Eigen::Isometry3d> reported =
+      Stream(*backend, kfs, std::nullopt, /*drift=*/true, /*point_ids=*/true, /*paced=*/true);
+  // Paced streaming drained after every keyframe: each drain ran it on the new keyframes.
+  EXPECT_EQ(backend->stats().final_ba_runs, kfs.size());
+  ASSERT_TRUE(backend->Drain().ok());
+  EXPECT_EQ(backend->stats().final_ba_runs, kfs.size());  // nothing new: not again
+  auto stored = reader_->ListKeyframes(session_.id, false);
+  ASSERT_TRUE(stored.ok());
+  std::vector<Eigen::Isometry3d> adjusted;
+  for (const KeyframeRecord& kf : *stored) adjusted.push_back(kf.T_world_camera);
+  EXPECT_LT(MaxError(kfs, adjusted), MaxError(kfs, reported) / 4);
+}
+
 // Keyframes arriving faster than BA finishes shrink its window or skip it: the back end keeps up.
 TEST_F(SlamBackendTest, LocalBundleAdjustmentGivesWayWhenKeyframesQueueUp) {
   const std::vector<Keyframe> kfs = RenderKeyframes(kLapFrames / 2);
