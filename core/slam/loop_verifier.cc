@@ -36,7 +36,8 @@ Status CheckFeatures(const FrameFeatures& f, const std::string& name, const Fram
 // One solve of the query's 2D keypoints against another keyframe's 3D points.
 struct Solve {
   int num_matches = 0;
-  std::optional<MotionEstimate> estimate;  // nullopt: too little support for a pose
+  std::vector<std::pair<int, int>> matches;  // (query keypoint, other keypoint), solve order
+  std::optional<MotionEstimate> estimate;    // nullopt: too little support for a pose
   int inliers() const { return estimate ? static_cast<int>(estimate->inliers.size()) : 0; }
 };
 
@@ -65,10 +66,12 @@ StatusOr<Solve> SolveAgainst(const FrameFeatures& query, const FrameFeatures& ot
   std::vector<cv::Point2f> pixels;
   points.reserve(matches.size());
   pixels.reserve(matches.size());
+  solve.matches.reserve(matches.size());
   for (const cv::DMatch& m : matches) {
-    points.push_back(
-        other.points_camera[static_cast<size_t>(depth_index[static_cast<size_t>(m.queryIdx)])]);
+    const int other_keypoint = depth_index[static_cast<size_t>(m.queryIdx)];
+    points.push_back(other.points_camera[static_cast<size_t>(other_keypoint)]);
     pixels.push_back(query.keypoints[static_cast<size_t>(m.trainIdx)].pt);
+    solve.matches.emplace_back(m.trainIdx, other_keypoint);
   }
   StatusOr<MotionEstimate> estimate = EstimateMotion(points, pixels, camera, options.motion);
   if (estimate.ok()) {
@@ -174,6 +177,9 @@ StatusOr<LoopVerification> VerifyLoopCandidate(const FrameFeatures& query,
     out.rms_px = c.estimate->rms_reprojection_px;
     out.T_candidate_query = c.estimate->T_reference_current;
     out.information = c.estimate->information;
+    out.inlier_matches.reserve(c.estimate->inliers.size());
+    for (int i : c.estimate->inliers)
+      out.inlier_matches.push_back(c.matches[static_cast<size_t>(i)]);
   }
   out.decision = DecideGeometry(out.num_matches, out.candidate_inliers, out.rms_px, options);
   if (!out.accepted()) return out;  // each neighbour costs a full descriptor match: skip them

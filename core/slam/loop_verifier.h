@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "common/camera.h"
@@ -55,6 +56,9 @@ struct LoopVerification {
   // T_candidate_query * exp(e) as MotionEstimate::information (zero when the solve failed).
   Eigen::Isometry3d T_candidate_query = Eigen::Isometry3d::Identity();
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  // The candidate solve's inlier correspondences: (query keypoint, candidate keypoint). The
+  // back end fuses the map points on either side of an accepted loop through them.
+  std::vector<std::pair<int, int>> inlier_matches;
 };
 
 // `query`, `candidate`, `neighbours[i]`: features of keyframes of one camera (3D points in each

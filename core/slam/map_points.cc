@@ -126,6 +126,45 @@ void MapPoints::MoveWithKeyframes(const std::map<int, Eigen::Isometry3d>& T_new_
   }
 }
 
+std::unordered_map<int, int64_t> MapPoints::PointsByKeypoint(int keyframe) const {
+  std::unordered_map<int, int64_t> out;
+  for (int64_t id : PointsOf(keyframe)) {
+    for (const MapPointObservation& o : points_.at(id).observations) {
+      if (o.keyframe == keyframe) out.emplace(o.keypoint, id);
+    }
+  }
+  return out;
+}
+
+bool MapPoints::Fuse(int64_t keep, int64_t drop) {
+  if (keep == drop) return false;
+  const auto k = points_.find(keep), d = points_.find(drop);
+  if (k == points_.end() || d == points_.end()) return false;
+  MapPointState& kept = k->second;
+  for (const MapPointObservation& o : d->second.observations) {
+    auto& of_keyframe = points_of_keyframe_[static_cast<size_t>(o.keyframe)];
+    of_keyframe.erase(std::remove(of_keyframe.begin(), of_keyframe.end(), drop), of_keyframe.end());
+    const bool seen =
+        std::any_of(kept.observations.begin(), kept.observations.end(),
+                    [&](const MapPointObservation& x) { return x.keyframe == o.keyframe; });
+    if (seen) {
+      --num_observations_;
+      continue;
+    }
+    kept.observations.push_back(o);
+    of_keyframe.push_back(keep);
+  }
+  // Every tracker id of the dropped point now names the kept one.
+  std::vector<std::pair<int64_t, int64_t>> names = d->second.aliases;
+  names.emplace_back(d->second.session_id, d->second.tracker_id);
+  for (const auto& name : names) {
+    by_tracker_id_[name] = keep;
+    kept.aliases.push_back(name);
+  }
+  points_.erase(d);
+  return true;
+}
+
 void MapPoints::RemoveObservation(int64_t id, int keyframe) {
   const auto it = points_.find(id);
   if (it == points_.end()) return;
@@ -170,6 +209,7 @@ void MapPoints::Erase(int64_t id) {
     --num_observations_;
   }
   by_tracker_id_.erase({it->second.session_id, it->second.tracker_id});
+  for (const auto& alias : it->second.aliases) by_tracker_id_.erase(alias);
   points_.erase(it);
 }
 

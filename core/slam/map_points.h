@@ -41,7 +41,9 @@ struct MapPointState {
   Eigen::Vector3d position_world = Eigen::Vector3d::Zero();
   std::vector<MapPointObservation> observations;  // at most one per keyframe
   int64_t session_id = 0;
-  int64_t tracker_id = 0;      // the session tracker's id for it
+  int64_t tracker_id = 0;  // the session tracker's id for it
+  // Other (session, tracker id) pairs that name it: points fused into it.
+  std::vector<std::pair<int64_t, int64_t>> aliases;
   int created_in_session = 0;  // index_in_session of the keyframe that created it
 };
 
@@ -81,6 +83,13 @@ class MapPoints {
   // A correction of keyframe poses (T_new_old by graph node): each point moves rigidly with
   // its oldest observing keyframe, when that one is in the map.
   void MoveWithKeyframes(const std::map<int, Eigen::Isometry3d>& T_new_old);
+  // The point each keypoint of `keyframe` observes (keypoint -> point id).
+  std::unordered_map<int, int64_t> PointsByKeypoint(int keyframe) const;
+  // Merges point `drop` into `keep` (the same 3D point reached twice, e.g. both sides of a
+  // loop): keep gains drop's observations of keyframes it is not observed by, and drop's
+  // tracker id names keep from now on. False (nothing changed) when either is unknown or they
+  // are the same point.
+  bool Fuse(int64_t keep, int64_t drop);
   // Removes the observation; a point left without observations is removed.
   void RemoveObservation(int64_t id, int keyframe);
   // Culls the session's points that are old enough and still observed too rarely (options);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <set>
 #include <string>
+#include <unordered_map>
 #include <utility>
 
 #include "common/logging.h"
@@ -340,6 +341,9 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
       OptimiseAndCorrect();
     }
   }
+  if (loop && options_.local_ba.enabled && options_.local_ba.fuse_loop_points) {
+    FuseLoopPoints(*loop);
+  }
   SubmitPending();
   std::lock_guard lock(mutex_);
   ++stats_.keyframes;
@@ -640,6 +644,24 @@ void SlamBackend::SubmitPending() {
   if (pending_.empty()) return;
   writes_.Submit(std::move(pending_));
   pending_ = WriteBatch{};
+}
+
+void SlamBackend::FuseLoopPoints(const LoopClosureInfo& loop) {
+  const std::optional<int> query = graph_.Find(loop.query_session_id, loop.query_seq);
+  const std::optional<int> candidate = graph_.Find(loop.candidate_session_id, loop.candidate_seq);
+  if (!query || !candidate) return;
+  const std::unordered_map<int, int64_t> query_points = map_points_.PointsByKeypoint(*query);
+  const std::unordered_map<int, int64_t> candidate_points =
+      map_points_.PointsByKeypoint(*candidate);
+  uint64_t fused = 0;
+  for (const auto& [query_keypoint, candidate_keypoint] : loop.verification.inlier_matches) {
+    const auto q = query_points.find(query_keypoint);
+    const auto c = candidate_points.find(candidate_keypoint);
+    if (q == query_points.end() || c == candidate_points.end()) continue;
+    if (map_points_.Fuse(/*keep=*/c->second, /*drop=*/q->second)) ++fused;
+  }
+  std::lock_guard lock(mutex_);
+  stats_.map_points_fused += fused;
 }
 
 void SlamBackend::FinalBundleAdjust() {

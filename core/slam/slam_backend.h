@@ -169,6 +169,7 @@ struct SlamBackendStats {
   uint64_t final_ba_runs = 0;
   uint64_t ba_outliers_removed = 0;
   uint64_t map_points_culled = 0;
+  uint64_t map_points_fused = 0;  // across accepted loops
   size_t map_points = 0;
   size_t map_point_observations = 0;
   size_t queue_high_water = 0;
@@ -261,6 +262,9 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   bool OptimiseAndCorrect(bool check_new_loop = false);
   void LocalBundleAdjust(int index);
   void FinalBundleAdjust();  // options_.local_ba.final_ba
+  // Fuses the map points the loop's inlier matches show to be the same on both sides, so
+  // bundle adjustment sees the loop through shared points.
+  void FuseLoopPoints(const LoopClosureInfo& loop);
   // Sends the session of keyframe `index` the points its tracker should match against.
   void PublishTrackingMap(int index);
   // Publishes the moves of the nodes in `before` that moved: the layers' listener, stored

@@ -107,6 +107,31 @@ TEST(MapPointsTest, PointsMoveWithTheirOldestKeyframe) {
   EXPECT_TRUE(points.Find(second)->position_world.isApprox(Eigen::Vector3d(1.6, 0, 2)));
 }
 
+TEST(MapPointsTest, FusedPointsMergeObservationsAndAnswerToBothTrackerIds) {
+  MapPoints points;
+  const FrameFeatures f = Features(2);
+  points.AddKeyframe(1, 0, 0, f, At(0), {10, 11});  // the place, first visit
+  points.AddKeyframe(1, 1, 1, f, At(0), {10, -1});
+  points.AddKeyframe(1, 2, 2, f, At(0), {20, 21});  // back again: new ids for the same points
+  const auto first = points.PointsByKeypoint(0), again = points.PointsByKeypoint(2);
+  ASSERT_EQ(first.size(), 2u);
+  ASSERT_EQ(again.size(), 2u);
+  EXPECT_FALSE(points.Fuse(first.at(0), first.at(0)));
+  EXPECT_FALSE(points.Fuse(first.at(0), 12345));
+  ASSERT_TRUE(points.Fuse(/*keep=*/first.at(0), /*drop=*/again.at(0)));
+  EXPECT_EQ(points.size(), 3u);
+  EXPECT_EQ(points.Find(again.at(0)), nullptr);
+  const MapPointState* kept = points.Find(first.at(0));
+  ASSERT_EQ(kept->observations.size(), 3u);  // keyframes 0, 1 and 2
+  EXPECT_EQ(points.PointsByKeypoint(2).at(0), first.at(0));
+  EXPECT_EQ(points.Covisible(2).size(), 2u);  // the loop is now covisibility
+  // The tracker's later observation under the dropped id lands on the kept point.
+  points.AddKeyframe(1, 3, 3, f, At(0), {20, -1});
+  EXPECT_EQ(points.Find(first.at(0))->observations.size(), 4u);
+  EXPECT_EQ(points.size(), 3u);
+  EXPECT_EQ(points.num_observations(), 6u);
+}
+
 TEST(MapPointsTest, OptionsAreValidated) {
   MapPointsOptions options;
   EXPECT_TRUE(options.Validate().ok());

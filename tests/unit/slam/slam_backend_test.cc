@@ -89,12 +89,13 @@ class SlamBackendTest : public ::testing::Test {
   // then the events. The "tracker" starts at T_first and accumulates drifted steps (exact ones
   // without drift). Returns the poses it reported.
   // With `point_ids`, each keyframe names its map points as a tracker would: keypoints with
-  // depth whose true world positions fall in the same 1 cm cell share an id. `paced`: waits for
-  // the back end after each keyframe, as a camera's frame rate does (else keyframes queue up).
+  // depth whose true world positions fall in the same 1 cm cell share an id (from the second
+  // half on, other ids with `rename_halfway`). `paced`: waits for the back end after each
+  // keyframe, as a camera's frame rate does (else keyframes queue up).
   std::vector<Eigen::Isometry3d> Stream(SlamBackend& backend, const std::vector<Keyframe>& kfs,
                                         std::optional<Eigen::Isometry3d> T_first = std::nullopt,
                                         bool drift = true, bool point_ids = false,
-                                        bool paced = false) {
+                                        bool paced = false, bool rename_halfway = false) {
     std::vector<Eigen::Isometry3d> reported;
     std::map<std::array<int64_t, 3>, int64_t> id_of_cell;
     Eigen::Isometry3d T = T_first ? *T_first : kfs[0].T_true;
@@ -136,6 +137,8 @@ class SlamBackendTest : public ::testing::Test {
                                             std::llround(p.z())};
           event.point_ids[k] =
               id_of_cell.emplace(cell, static_cast<int64_t>(id_of_cell.size())).first->second;
+          // A tracker that forgot the first half names what it sees again anew.
+          if (rename_halfway && 2 * i >= kfs.size()) event.point_ids[k] += 1'000'000;
         }
       }
       if (i > 0) event.previous_seq = kfs[i - 1].seq;
@@ -430,6 +433,22 @@ TEST_F(SlamBackendTest, FinalBundleAdjustmentRunsWhenTheSessionDrains) {
   std::vector<Eigen::Isometry3d> adjusted;
   for (const KeyframeRecord& kf : *stored) adjusted.push_back(kf.T_world_camera);
   EXPECT_LT(MaxError(kfs, adjusted), MaxError(kfs, reported) / 4);
+}
+
+// With loop-point fusion on, a closed lap's two sides share map points afterwards.
+TEST_F(SlamBackendTest, AcceptedLoopFusesTheMapPointsOnBothSides) {
+  const std::vector<Keyframe> kfs = RenderKeyframes(kLapFrames + 1);
+  SlamBackendOptions options;
+  options.local_radius_m = 1.0;
+  options.local_ba.fuse_loop_points = true;
+  std::unique_ptr<SlamBackend> backend = Start(options);
+  // Ids from a tracker that forgot the start: the lap's second half names its points anew.
+  Stream(*backend, kfs, std::nullopt, /*drift=*/true, /*point_ids=*/true, /*paced=*/true,
+         /*rename_halfway=*/true);
+  ASSERT_TRUE(backend->Drain().ok());
+  const SlamBackendStats stats = backend->stats();
+  EXPECT_GE(stats.loops_accepted, 1u);
+  EXPECT_GT(stats.map_points_fused, 20u);
 }
 
 // Keyframes arriving faster than BA finishes shrink its window or skip it: the back end keeps up.
