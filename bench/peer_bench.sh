@@ -6,10 +6,11 @@
 # ratios and semmap's back-end share. Medians over --runs runs (ORB-SLAM2 is multi-threaded and
 # not deterministic). Also writes OUT/peer_bench.json.
 #
-#   bench/peer_bench.sh [--runs N] [--only NAMES] [--out DIR]
+#   bench/peer_bench.sh [--runs N] [--only NAMES] [--out DIR] [--semmapd-args A]
 #     --runs N      runs per system and sequence (default 3)
 #     --only NAMES  comma-separated subset of: teddy, redkitchen, icl
 #     --out DIR     where every run's files and the report go (default: a new temp dir, kept)
+#     --semmapd-args A  extra semmapd flags, one string (e.g. "--final-ba on")
 #
 # Sequences: teddy (../shared/data), 7-Scenes redkitchen and ICL-NUIM kt2 ($SEMMAP_EXTRA_DATA,
 # default ~/.cache/semmap/data; rebuild with ../shared/data/extra/README.md); each is skipped
@@ -34,13 +35,14 @@ export ORBSLAM2_ROOT
 EXTRA=${SEMMAP_EXTRA_DATA:-$HOME/.cache/semmap/data}
 SHARED_DATA="$ROOT/../shared/data"
 
-usage() { sed -n '2,27p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-2}"; }
-RUNS=3; ONLY=""; OUT=""
+usage() { sed -n '2,28p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-2}"; }
+RUNS=3; ONLY=""; OUT=""; SEMMAPD_ARGS=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --runs) RUNS=$2; shift 2 ;;
     --only) ONLY=",$2,"; shift 2 ;;
     --out) OUT=$2; shift 2 ;;
+    --semmapd-args) SEMMAPD_ARGS=$2; shift 2 ;;
     -h|--help) usage 0 ;;
     *) echo "peer_bench: unknown option $1" >&2; usage ;;
   esac
@@ -87,7 +89,7 @@ orb_settings() {
 # run_semmap NAME DIR RUN_DIR: one semmap run (bench/run_dataset.sh); prints a JSON object.
 run_semmap() {
   local dir=$2 out=$3
-  bash bench/run_dataset.sh "$dir" --out "$out" >"$out.log" 2>&1 ||
+  bash bench/run_dataset.sh "$dir" --out "$out" --semmapd-args "$SEMMAPD_ARGS" >"$out.log" 2>&1 ||
     { echo "  semmap run failed: $out.log" >&2; tail -5 "$out.log" >&2; echo null; return; }
   jq -c '{ate_m: .ate.rmse, ate_max_m: .ate.max, frames: .ingest.frames_sent,
           tracked: (.ingest.frames_stored - .ingest.lost_frames), lost: .ingest.lost_frames,
@@ -128,7 +130,8 @@ summarise() {
 }
 
 echo "peer_bench: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)," \
-     "commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'), $RUNS run(s) each, out $OUT"
+     "commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'), $RUNS run(s) each," \
+     "semmapd ${SEMMAPD_ARGS:-(defaults)}, out $OUT"
 echo '{}' >"$OUT/peer_bench.json"
 T0=$(date +%s)
 for entry in "${SEQS[@]}"; do

@@ -4,10 +4,11 @@
 # latency (p50/p95/max), server peak RSS, database size and, with ground truth, ATE and RPE
 # plus a trajectory plot. Also writes all figures as JSON.
 #
-#   bench/run_dataset.sh DIR [--poses GT] [--gt GT] [--out OUT_DIR] [--mono]
+#   bench/run_dataset.sh DIR [--poses GT] [--gt GT] [--out OUT_DIR] [--mono] [--semmapd-args A]
 #     --poses GT  stream in KNOWN_POSES mode with these poses (e.g. groundtruth.txt)
 #     --gt GT     ground truth to evaluate against (default: DIR/groundtruth.txt if present)
 #     --out DIR   where report.json, the estimate and the plots go (default: a temp dir)
+#     --semmapd-args A  extra semmapd flags, one string (e.g. "--final-ba on")
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build/release}
@@ -17,13 +18,14 @@ SEMMAP="$BUILD_DIR/client/cli/semmap"
 usage() { sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; exit 2; }
 [ $# -ge 1 ] || usage
 DATASET=$1; shift
-POSES=""; GT=""; OUT=""; MODE_ARGS=()
+POSES=""; GT=""; OUT=""; MODE_ARGS=(); SERVER_ARGS=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --poses) POSES=$2; shift 2 ;;
     --gt) GT=$2; shift 2 ;;
     --out) OUT=$2; shift 2 ;;
     --mono) MODE_ARGS+=(--mono); shift ;;
+    --semmapd-args) read -r -a SERVER_ARGS <<<"$2"; shift 2 ;;
     -h|--help) usage ;;
     *) echo "run_dataset: unknown option $1" >&2; usage ;;
   esac
@@ -40,7 +42,7 @@ data_dir=$(mktemp -d -t semmap-bench-db-XXXXXX)
 pid=""
 trap '{ [ -n "$pid" ] && kill -KILL $pid 2>/dev/null; } || true; rm -rf "$data_dir"' EXIT
 source scripts/semmapd_lib.sh
-start_semmapd "$SEMMAPD" "$data_dir"
+start_semmapd "$SEMMAPD" "$data_dir" "${SERVER_ARGS[@]}"
 pid=$SEMMAPD_PID
 addr=$SEMMAPD_ADDR
 
