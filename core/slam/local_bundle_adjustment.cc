@@ -79,8 +79,8 @@ StatusOr<LocalBundleAdjustmentReport> AdjustWindow(const BundleAdjustmentWindow&
   for (size_t i = 0; i < keyframes.size(); ++i) {
     if (keyframes[i].fixed) continue;
     const int k = static_cast<int>(keyframes[i].id);
+    report.moved_keyframes.emplace_back(k, graph.node(k).T_world_keyframe);
     graph.SetPose(k, result->T_world_keyframe[i].second);
-    report.moved_keyframes.push_back(k);
   }
   for (const auto& [id, position] : result->position_world) points.SetPosition(id, position);
   for (size_t i = 0; i < observations.size(); ++i) {

@@ -7,6 +7,8 @@
 // optimisation.
 #pragma once
 
+#include <Eigen/Geometry>
+#include <utility>
 #include <vector>
 
 #include "common/status.h"
@@ -49,7 +51,9 @@ struct LocalBundleAdjustmentReport {
   int points_culled = 0;
   double solve_ms = 0;
   bool hit_time_limit = false;
-  std::vector<int> moved_keyframes;  // free keyframes (graph indices) whose pose was replaced
+  // Free keyframes whose pose was replaced: (graph index, pose before), what the caller needs
+  // to move the frames, layers and trackers that follow them.
+  std::vector<std::pair<int, Eigen::Isometry3d>> moved_keyframes;
 };
 
 // Runs the local BA of keyframe `keyframe` and applies it to `graph` and `points`.

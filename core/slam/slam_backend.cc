@@ -525,10 +525,6 @@ void SlamBackend::LocalBundleAdjust(int index) {
     return;
   }
   if (waiting == 1) options.max_free_keyframes = std::max(2, options.max_free_keyframes / 2);
-  PosesBefore before;
-  for (int k : map_points_.LocalWindow(index, options.max_free_keyframes, 0).free_keyframes) {
-    before.emplace_back(k, graph_.node(k).T_world_keyframe);
-  }
   const Clock::time_point t0 = Clock::now();
   StatusOr<LocalBundleAdjustmentReport> report =
       RunLocalBundleAdjustment(index, graph_, map_points_, options);
@@ -540,7 +536,7 @@ void SlamBackend::LocalBundleAdjust(int index) {
     return;
   }
   if (!report->ran) return;
-  ApplyMovedPoses(before, /*move_points=*/false);
+  ApplyMovedPoses(report->moved_keyframes, /*move_points=*/false);
   PublishTrackingMap(index);
   std::lock_guard lock(mutex_);
   ++stats_.local_ba_runs;
@@ -666,8 +662,6 @@ void SlamBackend::FuseLoopPoints(const LoopClosureInfo& loop) {
 
 void SlamBackend::FinalBundleAdjust() {
   keyframes_since_final_ba_ = false;
-  PosesBefore before;
-  for (int i = 0; i < graph_.size(); ++i) before.emplace_back(i, graph_.node(i).T_world_keyframe);
   const Clock::time_point t0 = Clock::now();
   StatusOr<LocalBundleAdjustmentReport> report = RunGlobalBundleAdjustment(
       graph_, map_points_, options_.local_ba, options_.local_ba.final_ba_max_solve_seconds);
@@ -679,7 +673,7 @@ void SlamBackend::FinalBundleAdjust() {
     return;
   }
   if (!report->ran) return;
-  ApplyMovedPoses(before, /*move_points=*/false);
+  ApplyMovedPoses(report->moved_keyframes, /*move_points=*/false);
   LogInfo(
       "{}: final bundle adjustment: {} keyframes ({} fixed), {} points, {} observations "
       "({} outliers removed), {:.0f} ms{}",
