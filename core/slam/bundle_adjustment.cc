@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "core/slam/internal/ceres_support.h"
+#include "core/slam/internal/relative_pose_error.h"
 
 namespace semmap {
 namespace {
@@ -96,6 +97,9 @@ Status BundleAdjustmentOptions::Validate() const {
     return InvalidArgumentError("bundle adjustment max_solve_seconds must be >= 0");
   }
   if (num_threads < 1) return InvalidArgumentError("bundle adjustment num_threads must be >= 1");
+  if (!std::isfinite(pose_constraint_loss_scale) || pose_constraint_loss_scale <= 0) {
+    return InvalidArgumentError("bundle adjustment pose_constraint_loss_scale must be positive");
+  }
   return OkStatus();
 }
 
@@ -128,7 +132,7 @@ StatusOr<BundleAdjustmentResult> BundleAdjust(
     const std::vector<BundleAdjustmentKeyframe>& keyframes,
     const std::vector<BundleAdjustmentPoint>& points,
     const std::vector<BundleAdjustmentObservation>& observations,
-    const BundleAdjustmentOptions& options) {
+    const BundleAdjustmentOptions& options, const std::vector<PoseGraphEdge>& pose_constraints) {
   SEMMAP_RETURN_IF_ERROR(options.Validate());
 
   // Parameter storage, never resized once blocks point into it.
@@ -177,6 +181,22 @@ StatusOr<BundleAdjustmentResult> BundleAdjust(
     SEMMAP_RETURN_IF_ERROR(ValidateObservation(o).WithContext(name));
     observed[i] = {k->second, p->second};
   }
+  std::vector<std::pair<size_t, size_t>> constrained(pose_constraints.size());  // (from, to)
+  std::vector<slam_internal::Matrix6d> constraint_sqrt_information(pose_constraints.size());
+  for (size_t i = 0; i < pose_constraints.size(); ++i) {
+    const PoseGraphEdge& e = pose_constraints[i];
+    const std::string name = "bundle adjustment pose constraint " + std::to_string(i);
+    const auto from = keyframe_index.find(e.from), to = keyframe_index.find(e.to);
+    if (from == keyframe_index.end() || to == keyframe_index.end()) {
+      return InvalidArgumentError(name + " names unknown " +
+                                  Named("keyframe", from == keyframe_index.end() ? e.from : e.to));
+    }
+    if (e.from == e.to) return InvalidArgumentError(name + " connects a keyframe to itself");
+    SEMMAP_RETURN_IF_ERROR(slam_internal::ValidateRigidPose(e.T_from_to).WithContext(name));
+    SEMMAP_RETURN_IF_ERROR(slam_internal::ValidateInformation(e.information).WithContext(name));
+    constrained[i] = {from->second, to->second};
+    constraint_sqrt_information[i] = slam_internal::SqrtInformation(e.information);
+  }
   const auto keyframe_fixed = [&](size_t k) {
     return keyframes[k].fixed || (!any_fixed && k == 0);
   };
@@ -223,6 +243,7 @@ StatusOr<BundleAdjustmentResult> BundleAdjust(
     };
     ceres::HuberLoss loss_2dof(std::sqrt(options.chi2_2dof));
     ceres::HuberLoss loss_3dof(std::sqrt(options.chi2_3dof));
+    ceres::HuberLoss constraint_loss(options.pose_constraint_loss_scale);
     ceres::EigenQuaternionManifold quaternion_manifold;
     ceres::Problem::Options problem_options;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -230,6 +251,18 @@ StatusOr<BundleAdjustmentResult> BundleAdjust(
     ceres::Problem problem(problem_options);
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     std::vector<bool> pose_added(keyframes.size(), false), point_added(points.size(), false);
+    const auto add_pose = [&](size_t k) {
+      if (pose_added[k]) return;
+      pose_added[k] = true;
+      problem.AddParameterBlock(poses[k].t, 3);
+      problem.AddParameterBlock(poses[k].q, 4, &quaternion_manifold);
+      if (keyframe_fixed(k)) {
+        problem.SetParameterBlockConstant(poses[k].t);
+        problem.SetParameterBlockConstant(poses[k].q);
+      }
+      ordering->AddElementToGroup(poses[k].t, 1);
+      ordering->AddElementToGroup(poses[k].q, 1);
+    };
     result.num_points_optimised = 0;
     for (size_t i = 0; i < observations.size(); ++i) {
       const auto [k, p] = observed[i];
@@ -246,17 +279,8 @@ StatusOr<BundleAdjustmentResult> BundleAdjust(
             new ObservationResidual<false>(keyframes[k].camera, o, options.inverse_depth_sigma));
         loss = robust ? &loss_2dof : nullptr;
       }
+      add_pose(k);
       problem.AddResidualBlock(cost, loss, poses[k].t, poses[k].q, positions[p].data());
-      if (!pose_added[k]) {
-        pose_added[k] = true;
-        problem.SetManifold(poses[k].q, &quaternion_manifold);
-        if (keyframe_fixed(k)) {
-          problem.SetParameterBlockConstant(poses[k].t);
-          problem.SetParameterBlockConstant(poses[k].q);
-        }
-        ordering->AddElementToGroup(poses[k].t, 1);
-        ordering->AddElementToGroup(poses[k].q, 1);
-      }
       if (!point_added[p]) {
         point_added[p] = true;
         if (points[p].fixed) {
@@ -266,6 +290,17 @@ StatusOr<BundleAdjustmentResult> BundleAdjust(
         }
         ordering->AddElementToGroup(positions[p].data(), 0);
       }
+    }
+    for (size_t i = 0; i < pose_constraints.size(); ++i) {
+      const auto [from, to] = constrained[i];
+      if (keyframe_fixed(from) && keyframe_fixed(to)) continue;  // nothing to pull on
+      add_pose(from);
+      add_pose(to);
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<slam_internal::RelativePoseError, 6, 3, 4, 3, 4>(
+              new slam_internal::RelativePoseError(pose_constraints[i].T_from_to,
+                                                   constraint_sqrt_information[i])),
+          &constraint_loss, poses[from].t, poses[from].q, poses[to].t, poses[to].q);
     }
     if (problem.NumResidualBlocks() == 0 || iterations == 0) return true;
     ceres::Solver::Options solver_options;

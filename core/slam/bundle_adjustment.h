@@ -7,7 +7,9 @@
 // then outlier observations are removed by a chi-square gate and the rest solved without the
 // robust loss (as ORB-SLAM2's LocalBundleAdjustment). Used for the local window after each
 // keyframe and for the optional global BA at the end of a session; which keyframes are free
-// and which are fixed is the caller's choice.
+// and which are fixed is the caller's choice. Relative-pose constraints between keyframes (loop
+// edges of the pose graph) can be added: a loop the pose graph closed stays closed while the
+// points of both sides, which no observation ties together, are refined.
 #pragma once
 
 #include <Eigen/Core>
@@ -19,6 +21,7 @@
 
 #include "common/camera.h"
 #include "common/status.h"
+#include "core/slam/pose_graph.h"
 
 namespace semmap {
 
@@ -36,6 +39,8 @@ struct BundleAdjustmentOptions {
   // 0: unbounded.
   double max_solve_seconds = 0;
   int num_threads = 1;
+  // Huber scale (in sigmas) of the pose constraints, as the pose graph's loop_loss_scale.
+  double pose_constraint_loss_scale = 1.0;
 
   Status Validate() const;  // INVALID_ARGUMENT naming the field
 };
@@ -82,11 +87,15 @@ struct BundleAdjustmentResult {
 // usable solution. A free point is solved for only when its inlier observations determine it
 // (one with depth, or two): otherwise it keeps its position and its observations still count
 // for classification, not for the solve.
+// `pose_constraints` are pose-graph edges whose node ids are keyframe ids (robust, with
+// pose_constraint_loss_scale; never classified as outliers); INVALID_ARGUMENT for one naming an
+// unknown keyframe, the same keyframe twice, or invalid pose or information.
 StatusOr<BundleAdjustmentResult> BundleAdjust(
     const std::vector<BundleAdjustmentKeyframe>& keyframes,
     const std::vector<BundleAdjustmentPoint>& points,
     const std::vector<BundleAdjustmentObservation>& observations,
-    const BundleAdjustmentOptions& options);
+    const BundleAdjustmentOptions& options,
+    const std::vector<PoseGraphEdge>& pose_constraints = {});
 
 // Squared whitened error of one observation at the given pose and point (reprojection, plus
 // the inverse-depth term when the observation has depth and use_depth), and whether the point

@@ -65,8 +65,19 @@ StatusOr<LocalBundleAdjustmentReport> AdjustWindow(const BundleAdjustmentWindow&
       observations.push_back(obs);
     }
   }
+  // The loops the pose graph closed between keyframes of the window: their two sides share no
+  // points unless fused, and without the edge BA would let the loop open again.
+  std::vector<PoseGraphEdge> loops;
+  if (options.loop_constraints) {
+    for (const GraphEdge& e : graph.edges()) {
+      if (e.kind == PoseGraphEdgeKind::kLoop && in_window[static_cast<size_t>(e.from)] &&
+          in_window[static_cast<size_t>(e.to)]) {
+        loops.push_back(e);
+      }
+    }
+  }
   StatusOr<BundleAdjustmentResult> result =
-      BundleAdjust(keyframes, ba_points, observations, solver);
+      BundleAdjust(keyframes, ba_points, observations, solver, loops);
   if (!result.ok()) return result.status();
 
   report.ran = true;
@@ -74,6 +85,7 @@ StatusOr<LocalBundleAdjustmentReport> AdjustWindow(const BundleAdjustmentWindow&
   report.fixed_keyframes = static_cast<int>(window.fixed_keyframes.size());
   report.points = static_cast<int>(ba_points.size());
   report.observations = static_cast<int>(observations.size());
+  report.loop_constraints = static_cast<int>(loops.size());
   report.solve_ms = result->solve_ms;
   report.hit_time_limit = result->hit_time_limit;
   for (size_t i = 0; i < keyframes.size(); ++i) {

@@ -30,6 +30,9 @@ struct LocalBundleAdjustmentOptions {
   // held (teddy, 7-Scenes redkitchen, ICL kt2) it changed ATE by less than run-to-run noise
   // while making the windows after a loop larger and slower.
   bool fuse_loop_points = false;
+  // Loop edges between keyframes of a window enter its BA as relative-pose constraints (with the
+  // pose graph's information), so BA keeps what loop closure corrected.
+  bool loop_constraints = true;
   // A global BA over every keyframe and point when a session ends (its Drain), each of its two
   // solves bounded by final_ba_max_solve_seconds (0: unbounded).
   bool final_ba = false;
@@ -47,6 +50,7 @@ struct LocalBundleAdjustmentOptions {
 struct LocalBundleAdjustmentReport {
   bool ran = false;
   int free_keyframes = 0, fixed_keyframes = 0, points = 0, observations = 0;
+  int loop_constraints = 0;  // loop edges inside the window, kept as pose constraints
   int outliers_removed = 0;
   int points_culled = 0;
   double solve_ms = 0;

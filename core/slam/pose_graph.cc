@@ -2,77 +2,18 @@
 
 #include <ceres/ceres.h>
 
-#include <Eigen/Eigenvalues>
 #include <chrono>
 #include <cmath>
 #include <memory>
 #include <unordered_map>
 
 #include "core/slam/internal/ceres_support.h"
+#include "core/slam/internal/relative_pose_error.h"
 
 namespace semmap {
 namespace {
 
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
-
-// Residual of one edge over the parameter blocks (t_world_from, q_world_from, t_world_to,
-// q_world_to); quaternions in Eigen's (x, y, z, w) order, kept unit by EigenQuaternionManifold.
-class EdgeError {
- public:
-  EdgeError(const Eigen::Isometry3d& T_from_to, const Matrix6d& sqrt_information)
-      : t_to_from_(T_from_to.inverse().translation()),
-        q_to_from_(Eigen::Quaterniond(T_from_to.linear()).normalized().conjugate()),
-        sqrt_information_(sqrt_information) {}
-
-  template <typename T>
-  bool operator()(const T* t_wf_ptr, const T* q_wf_ptr, const T* t_wt_ptr, const T* q_wt_ptr,
-                  T* residual_ptr) const {
-    using Vec3 = Eigen::Matrix<T, 3, 1>;
-    const Eigen::Map<const Vec3> t_wf(t_wf_ptr), t_wt(t_wt_ptr);
-    const Eigen::Map<const Eigen::Quaternion<T>> q_wf(q_wf_ptr), q_wt(q_wt_ptr);
-    // Estimated T_from_to, then T_err = measured^-1 * estimated.
-    const Eigen::Quaternion<T> q_fw = q_wf.conjugate();
-    const Eigen::Quaternion<T> q_ft = q_fw * q_wt;
-    const Vec3 t_ft = q_fw * (t_wt - t_wf);
-    const Eigen::Quaternion<T> q_tf_measured = q_to_from_.cast<T>();
-    Eigen::Quaternion<T> q_err = q_tf_measured * q_ft;
-    // q and -q are the same rotation; take the short way so 2 * vec grows with the angle.
-    if (q_err.w() < T(0)) q_err.coeffs() = -q_err.coeffs();
-    Eigen::Matrix<T, 6, 1> error;
-    error.template head<3>() = q_tf_measured * t_ft + t_to_from_.cast<T>();
-    error.template tail<3>() = T(2) * q_err.vec();
-    Eigen::Map<Eigen::Matrix<T, 6, 1>> residual(residual_ptr);
-    residual = sqrt_information_.cast<T>() * error;
-    return true;
-  }
-
- private:
-  Eigen::Vector3d t_to_from_;
-  Eigen::Quaterniond q_to_from_;
-  Matrix6d sqrt_information_;
-};
-
-// L with L^T L = information, by eigen-decomposition so a PSD (rank-deficient) information
-// works where LLT would fail; tiny negative round-off eigenvalues are clamped to zero.
-Matrix6d SqrtInformation(const Matrix6d& information) {
-  Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(0.5 * (information + information.transpose()));
-  const Vector6d d = eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-  return d.asDiagonal() * eigen.eigenvectors().transpose();
-}
-
-Status ValidateInformation(const Matrix6d& information) {
-  if (!information.allFinite()) return InvalidArgumentError("information is not finite");
-  const double scale = information.cwiseAbs().maxCoeff();
-  if ((information - information.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale) {
-    return InvalidArgumentError("information is not symmetric");
-  }
-  Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(information, Eigen::EigenvaluesOnly);
-  if (eigen.eigenvalues().minCoeff() < -1e-9 * scale) {
-    return InvalidArgumentError("information is not positive semi-definite");
-  }
-  return OkStatus();
-}
 
 std::string EdgeName(size_t i, const PoseGraphEdge& e) {
   return "pose graph edge " + std::to_string(i) + " (" + std::to_string(e.from) + " -> " +
@@ -100,7 +41,8 @@ Eigen::Matrix<double, 6, 1> PoseGraphEdgeResidual(const PoseGraphEdge& edge,
   const Eigen::Quaterniond q_wf = Eigen::Quaterniond(T_world_from.linear()).normalized();
   const Eigen::Quaterniond q_wt = Eigen::Quaterniond(T_world_to.linear()).normalized();
   Vector6d residual;
-  EdgeError(edge.T_from_to, SqrtInformation(edge.information))(
+  slam_internal::RelativePoseError(edge.T_from_to,
+                                   slam_internal::SqrtInformation(edge.information))(
       t_wf.data(), q_wf.coeffs().data(), t_wt.data(), q_wt.coeffs().data(), residual.data());
   return residual;
 }
@@ -142,7 +84,8 @@ StatusOr<PoseGraphResult> OptimizePoseGraph(const std::vector<PoseGraphNode>& no
     if (e.from == e.to) return InvalidArgumentError(EdgeName(i, e) + ": connects a node to itself");
     SEMMAP_RETURN_IF_ERROR(
         slam_internal::ValidateRigidPose(e.T_from_to).WithContext(EdgeName(i, e)));
-    SEMMAP_RETURN_IF_ERROR(ValidateInformation(e.information).WithContext(EdgeName(i, e)));
+    SEMMAP_RETURN_IF_ERROR(
+        slam_internal::ValidateInformation(e.information).WithContext(EdgeName(i, e)));
     edge_nodes[i] = {from->second, to->second};
   }
 
@@ -176,8 +119,9 @@ StatusOr<PoseGraphResult> OptimizePoseGraph(const std::vector<PoseGraphNode>& no
   }
   for (size_t i = 0; i < edges.size(); ++i) {
     const PoseGraphEdge& e = edges[i];
-    auto* cost = new ceres::AutoDiffCostFunction<EdgeError, 6, 3, 4, 3, 4>(
-        new EdgeError(e.T_from_to, SqrtInformation(e.information)));
+    auto* cost = new ceres::AutoDiffCostFunction<slam_internal::RelativePoseError, 6, 3, 4, 3, 4>(
+        new slam_internal::RelativePoseError(e.T_from_to,
+                                             slam_internal::SqrtInformation(e.information)));
     const bool robust = e.kind == PoseGraphEdgeKind::kLoop || options.robust_odometry;
     NodeState& a = state[edge_nodes[i].first];
     NodeState& b = state[edge_nodes[i].second];

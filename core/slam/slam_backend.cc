@@ -676,10 +676,10 @@ void SlamBackend::FinalBundleAdjust() {
   ApplyMovedPoses(report->moved_keyframes, /*move_points=*/false);
   LogInfo(
       "{}: final bundle adjustment: {} keyframes ({} fixed), {} points, {} observations "
-      "({} outliers removed), {:.0f} ms{}",
+      "({} outliers removed), {} loop constraints, {:.0f} ms{}",
       name(), report->free_keyframes + report->fixed_keyframes, report->fixed_keyframes,
-      report->points, report->observations, report->outliers_removed, report->solve_ms,
-      report->hit_time_limit ? ", stopped at its time bound" : "");
+      report->points, report->observations, report->outliers_removed, report->loop_constraints,
+      report->solve_ms, report->hit_time_limit ? ", stopped at its time bound" : "");
   std::lock_guard lock(mutex_);
   ++stats_.final_ba_runs;
   stats_.ba_outliers_removed += static_cast<uint64_t>(report->outliers_removed);

@@ -245,6 +245,77 @@ TEST(BundleAdjustmentTest, RefusesBadInputNamingIt) {
       BundleAdjust(scene.keyframes, scene.ba_points, scene.observations, options).status().code(),
       StatusCode::kInvalidArgument);
   EXPECT_TRUE(BundleAdjust({}, {}, {}, {}).ok());
+
+  PoseGraphEdge loop;
+  loop.from = scene.keyframes[0].id;
+  loop.to = 42;
+  loop.kind = PoseGraphEdgeKind::kLoop;
+  result = BundleAdjust(scene.keyframes, scene.ba_points, scene.observations, {}, {loop});
+  ASSERT_EQ(result.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(result.status().message().find("pose constraint 0 names unknown keyframe 42"),
+            std::string::npos);
+  loop.to = loop.from;
+  EXPECT_EQ(BundleAdjust(scene.keyframes, scene.ba_points, scene.observations, {}, {loop})
+                .status()
+                .code(),
+            StatusCode::kInvalidArgument);
+  loop.to = scene.keyframes[1].id;
+  loop.information(0, 1) = 5;  // not symmetric
+  EXPECT_EQ(BundleAdjust(scene.keyframes, scene.ba_points, scene.observations, {}, {loop})
+                .status()
+                .code(),
+            StatusCode::kInvalidArgument);
+}
+
+// Two halves of a path that share no map points (the two sides of a loop before fusion): only
+// the loop edge ties the second half to the first. With it, a half shifted as a whole (points
+// and keyframes together, so every observation still fits) returns to where the loop says;
+// without it, nothing in the data moves it.
+TEST(BundleAdjustmentTest, LoopConstraintHoldsTwoHalvesThatShareNoPointsTogether) {
+  Scene scene;
+  const auto second_half = [](int64_t keyframe_id) { return keyframe_id >= 104; };
+  std::vector<BundleAdjustmentObservation> observations;
+  for (const BundleAdjustmentObservation& o : scene.observations) {
+    if (second_half(o.keyframe_id) == (o.point_id >= 150)) observations.push_back(o);
+  }
+  Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
+  shift.translation() << 0.05, -0.03, 0.02;
+  shift.linear() =
+      Eigen::AngleAxisd(2 * M_PI / 180, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  auto keyframes = scene.keyframes;
+  auto points = scene.ba_points;
+  keyframes[0].fixed = true;
+  for (auto& k : keyframes) {
+    if (second_half(k.id)) k.T_world_camera = shift * k.T_world_camera;
+  }
+  for (auto& p : points) {
+    if (p.id >= 150) p.position_world = shift * p.position_world;
+  }
+  PoseGraphEdge loop;
+  loop.from = 103;
+  loop.to = 104;
+  loop.T_from_to = scene.T_world_camera[3].inverse() * scene.T_world_camera[4];
+  loop.information = Eigen::Matrix<double, 6, 6>::Identity() * 1e4;  // 1 cm, 0.01 rad
+  loop.kind = PoseGraphEdgeKind::kLoop;
+
+  const auto with_loop = BundleAdjust(keyframes, points, observations, {}, {loop});
+  ASSERT_TRUE(with_loop.ok()) << with_loop.status().ToString();
+  EXPECT_EQ(with_loop->num_outliers, 0);
+  for (size_t k = 0; k < keyframes.size(); ++k) {
+    const Eigen::Isometry3d& T = with_loop->T_world_keyframe[k].second;
+    EXPECT_LT((T.translation() - scene.T_world_camera[k].translation()).norm(), 1e-3) << k;
+    EXPECT_LT(RotationDeg(T, scene.T_world_camera[k]), 0.01) << k;
+  }
+  for (size_t i = 0; i < scene.points.size(); ++i) {
+    EXPECT_LT((with_loop->position_world[i].second - scene.points[i]).norm(), 1e-3) << i;
+  }
+
+  const auto without = BundleAdjust(keyframes, points, observations, {});
+  ASSERT_TRUE(without.ok()) << without.status().ToString();
+  EXPECT_GT(
+      (without->T_world_keyframe[6].second.translation() - scene.T_world_camera[6].translation())
+          .norm(),
+      0.04);
 }
 
 }  // namespace
