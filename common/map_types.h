@@ -126,6 +126,23 @@ struct LinkRecord {
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
 };
 
+// A keyframe keypoint that observes a map point: the keyframe by (session_id, seq) (its row id
+// may not be known to the back end), the keypoint by its index in the keyframe's features.
+struct MapPointObservationRecord {
+  int64_t session_id = 0;
+  int64_t seq = 0;
+  int32_t keypoint = 0;
+};
+
+// A 3D point of a map's SLAM back end (bundle-adjusted), as stored: a restarted server tracks
+// against and closes loops with them.
+struct MapPointRecord {
+  int64_t point_id = 0;    // the back end's id, unique within its map
+  int64_t session_id = 0;  // the session whose keyframe created it
+  Eigen::Vector3d position_world = Eigen::Vector3d::Zero();
+  std::vector<MapPointObservationRecord> observations;
+};
+
 // A named binary layer of a map (OctoMap, point cloud, ...), checksummed in the store.
 struct MapBlob {
   int64_t map_id = 0;

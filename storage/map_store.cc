@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <iterator>
+#include <utility>
 
 namespace semmap {
 namespace {
@@ -16,6 +17,23 @@ void MoveAppend(std::vector<T>& to, std::vector<T>&& from) {
   from.clear();
 }
 
+// Each entry replaces all of its map's rows, so of two for one map only the later one matters:
+// it takes the earlier one's place instead of being written after it.
+template <typename T>
+void MergeReplacements(std::vector<std::pair<int64_t, std::vector<T>>>& to,
+                       std::vector<std::pair<int64_t, std::vector<T>>>&& from) {
+  for (auto& [map_id, rows] : from) {
+    auto same_map = std::find_if(to.begin(), to.end(),
+                                 [id = map_id](const auto& entry) { return entry.first == id; });
+    if (same_map != to.end()) {
+      same_map->second = std::move(rows);
+    } else {
+      to.emplace_back(map_id, std::move(rows));
+    }
+  }
+  from.clear();
+}
+
 }  // namespace
 
 void WriteBatch::Append(WriteBatch&& other) {
@@ -25,18 +43,8 @@ void WriteBatch::Append(WriteBatch&& other) {
   MoveAppend(blobs, std::move(other.blobs));
   MoveAppend(pose_updates, std::move(other.pose_updates));
   MoveAppend(observations, std::move(other.observations));
-  // Each entry replaces all of its map's instances, so of two for one map only the later one
-  // matters: it takes the earlier one's place instead of being written after it.
-  for (auto& [map_id, instances] : other.instances) {
-    auto same_map = std::find_if(this->instances.begin(), this->instances.end(),
-                                 [id = map_id](const auto& entry) { return entry.first == id; });
-    if (same_map != this->instances.end()) {
-      same_map->second = std::move(instances);
-    } else {
-      this->instances.emplace_back(map_id, std::move(instances));
-    }
-  }
-  other.instances.clear();
+  MergeReplacements(instances, std::move(other.instances));
+  MergeReplacements(map_points, std::move(other.map_points));
 }
 
 }  // namespace semmap

@@ -27,9 +27,11 @@ struct WriteBatch {
   std::vector<ObjectObservation> observations;
   // Each replaces every stored instance of its map (the fusion's current answer).
   std::vector<std::pair<int64_t, std::vector<ObjectInstance>>> instances;  // (map_id, all)
+  // Each replaces every stored map point of its map (the back end's current points).
+  std::vector<std::pair<int64_t, std::vector<MapPointRecord>>> map_points;  // (map_id, all)
   bool empty() const {
     return frames.empty() && keyframes.empty() && links.empty() && blobs.empty() &&
-           pose_updates.empty() && observations.empty() && instances.empty();
+           pose_updates.empty() && observations.empty() && instances.empty() && map_points.empty();
   }
   void Append(WriteBatch&& other);
 };
@@ -80,6 +82,9 @@ class MapStore {
   // end reloads); DATA_LOSS when stored features fail their checksum.
   virtual StatusOr<std::vector<KeyframeRecord>> ListKeyframeFeatures(int64_t session_id) = 0;
   virtual StatusOr<std::vector<LinkRecord>> ListLinks(int64_t map_id) = 0;
+  // The map's stored map points (any order); observations of keyframes no longer stored (a
+  // removed session) are left out, and points left without observations too.
+  virtual StatusOr<std::vector<MapPointRecord>> ListMapPoints(int64_t map_id) = 0;
   // Replaces keyframe poses after an optimisation (ids must exist).
   virtual Status UpdateKeyframePoses(
       const std::vector<std::pair<int64_t, Eigen::Isometry3d>>& T_world_keyframe) = 0;

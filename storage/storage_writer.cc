@@ -13,7 +13,16 @@ namespace {
 struct BatchShape {
   size_t frames = 0, keyframes = 0, links = 0, blobs = 0, pose_updates = 0, observations = 0;
   std::vector<int64_t> instance_maps;  // maps whose instances the batch replaces
+  std::vector<int64_t> point_maps;     // maps whose map points the batch replaces
 };
+
+template <typename T>
+std::vector<int64_t> MapsOf(const std::vector<std::pair<int64_t, std::vector<T>>>& replacements) {
+  std::vector<int64_t> maps;
+  maps.reserve(replacements.size());
+  for (const auto& entry : replacements) maps.push_back(entry.first);
+  return maps;
+}
 
 BatchShape ShapeOf(const WriteBatch& b) {
   BatchShape shape;
@@ -23,7 +32,8 @@ BatchShape ShapeOf(const WriteBatch& b) {
   shape.blobs = b.blobs.size();
   shape.pose_updates = b.pose_updates.size();
   shape.observations = b.observations.size();
-  for (const auto& entry : b.instances) shape.instance_maps.push_back(entry.first);
+  shape.instance_maps = MapsOf(b.instances);
+  shape.point_maps = MapsOf(b.map_points);
   return shape;
 }
 
@@ -33,6 +43,25 @@ std::vector<T> TakeRange(std::vector<T>& from, size_t& offset, size_t count) {
   offset += count;
   return std::vector<T>(std::make_move_iterator(first),
                         std::make_move_iterator(first + static_cast<std::ptrdiff_t>(count)));
+}
+
+// Append kept one replacement per map, the latest: it goes back to the last batch that
+// replaced that map (the earlier batches' lists were superseded and are not retried).
+template <typename T>
+void ReturnReplacements(std::vector<std::pair<int64_t, std::vector<T>>>&& merged,
+                        const std::vector<BatchShape>& shapes,
+                        std::vector<int64_t> BatchShape::*maps_of,
+                        std::vector<std::pair<int64_t, std::vector<T>>> WriteBatch::*rows_of,
+                        std::vector<WriteBatch>& batches) {
+  for (auto& entry : merged) {
+    for (size_t i = shapes.size(); i-- > 0;) {
+      const std::vector<int64_t>& maps = shapes[i].*maps_of;
+      if (std::find(maps.begin(), maps.end(), entry.first) != maps.end()) {
+        (batches[i].*rows_of).push_back(std::move(entry));
+        break;
+      }
+    }
+  }
 }
 
 // Undoes WriteBatch::Append: gives every batch its own rows back, in order.
@@ -48,17 +77,10 @@ std::vector<WriteBatch> Split(WriteBatch&& merged, const std::vector<BatchShape>
     b.pose_updates = TakeRange(merged.pose_updates, offset.pose_updates, shape.pose_updates);
     b.observations = TakeRange(merged.observations, offset.observations, shape.observations);
   }
-  // Append kept one instance list per map, the latest: it goes back to the last batch that
-  // replaced that map (the earlier batches' lists were superseded and are not retried).
-  for (auto& entry : merged.instances) {
-    for (size_t i = shapes.size(); i-- > 0;) {
-      const std::vector<int64_t>& maps = shapes[i].instance_maps;
-      if (std::find(maps.begin(), maps.end(), entry.first) != maps.end()) {
-        batches[i].instances.push_back(std::move(entry));
-        break;
-      }
-    }
-  }
+  ReturnReplacements(std::move(merged.instances), shapes, &BatchShape::instance_maps,
+                     &WriteBatch::instances, batches);
+  ReturnReplacements(std::move(merged.map_points), shapes, &BatchShape::point_maps,
+                     &WriteBatch::map_points, batches);
   return batches;
 }
 

@@ -57,16 +57,42 @@ std::optional<int> KeyframeGraph::LastOfSession(int64_t session_id) const {
   return it->second.back();
 }
 
+void KeyframeGraph::Cull(int index) {
+  GraphKeyframe& kf = nodes_[static_cast<size_t>(index)];
+  kf.culled = true;
+  kf.features.reset();
+}
+
 std::vector<int> KeyframeGraph::SessionNeighbours(int index, int radius) const {
   const GraphKeyframe& kf = node(index);
   const std::vector<int>& order = by_session_.at(kf.session_id);
+  std::vector<int> before, after;
+  for (int pos = kf.index_in_session - 1; pos >= 0 && static_cast<int>(before.size()) < radius;
+       --pos) {
+    if (!node(order[static_cast<size_t>(pos)]).culled)
+      before.push_back(order[static_cast<size_t>(pos)]);
+  }
+  for (int pos = kf.index_in_session + 1;
+       pos < static_cast<int>(order.size()) && static_cast<int>(after.size()) < radius; ++pos) {
+    if (!node(order[static_cast<size_t>(pos)]).culled)
+      after.push_back(order[static_cast<size_t>(pos)]);
+  }
+  // Nearest first, alternating sides as before culling existed.
   std::vector<int> out;
-  for (int d = 1; d <= radius; ++d) {
-    for (int pos : {kf.index_in_session - d, kf.index_in_session + d}) {
-      if (pos >= 0 && pos < static_cast<int>(order.size())) out.push_back(order[pos]);
-    }
+  for (size_t d = 0; d < std::max(before.size(), after.size()); ++d) {
+    if (d < before.size()) out.push_back(before[d]);
+    if (d < after.size()) out.push_back(after[d]);
   }
   return out;
+}
+
+std::optional<int> KeyframeGraph::PreviousKept(int index) const {
+  const GraphKeyframe& kf = node(index);
+  const std::vector<int>& order = by_session_.at(kf.session_id);
+  for (int pos = kf.index_in_session - 1; pos >= 0; --pos) {
+    if (!node(order[static_cast<size_t>(pos)]).culled) return order[static_cast<size_t>(pos)];
+  }
+  return std::nullopt;
 }
 
 std::vector<int> KeyframeGraph::Near(const Eigen::Isometry3d& T_world_camera, double radius_m,
@@ -76,7 +102,7 @@ std::vector<int> KeyframeGraph::Near(const Eigen::Isometry3d& T_world_camera, do
   const double min_cos = std::cos(max_angle_rad);
   std::vector<std::pair<double, int>> found;
   for (int i = 0; i < size(); ++i) {
-    if (skip && skip(i)) continue;
+    if (nodes_[static_cast<size_t>(i)].culled || (skip && skip(i))) continue;
     const Eigen::Isometry3d& T = nodes_[static_cast<size_t>(i)].T_world_keyframe;
     const double distance = (T.translation() - T_world_camera.translation()).norm();
     if (distance > radius_m || T.linear().col(2).dot(axis) < min_cos) continue;

@@ -27,6 +27,9 @@ struct GraphKeyframe {
   std::shared_ptr<const FrameFeatures> features;
   const CameraCalibration* camera = nullptr;  // the session's, owned by the back end
   int index_in_session = 0;                   // 0, 1, 2, ... in the session's order
+  // Redundant (keyframe_culling.h): a pose node of the graph only, without features; loop
+  // search and session neighbours pass over it.
+  bool culled = false;
 };
 
 // An edge of the graph is a pose-graph edge whose node ids are the graph's node indices, so the
@@ -40,6 +43,9 @@ class KeyframeGraph {
   void AddEdge(const GraphEdge& edge);
   // Takes back the latest edge (a loop the optimisation showed to be inconsistent).
   void RemoveLastEdge();
+  // Marks the keyframe culled and releases its features; it keeps its edges, so the pose
+  // graph still chains its neighbours through it.
+  void Cull(int index);
   void SetPose(int index, const Eigen::Isometry3d& T_world_keyframe) {
     nodes_[static_cast<size_t>(index)].T_world_keyframe = T_world_keyframe;
   }
@@ -51,12 +57,15 @@ class KeyframeGraph {
   // Keyframes joined by edges share a frame; separate components (sessions not yet linked by
   // a loop) do not, so their poses cannot be compared.
   bool SameComponent(int a, int b) const { return Root(a) == Root(b); }
-  // The session's keyframes within `radius` places of `index` in its order (not itself).
+  // The session's `radius` nearest keyframes before and after `index` in its order that are
+  // not culled (not itself).
   std::vector<int> SessionNeighbours(int index, int radius) const;
+  // The nearest keyframe before `index` in its session's order that is not culled.
+  std::optional<int> PreviousKept(int index) const;
   // The latest keyframe of a session, if any.
   std::optional<int> LastOfSession(int64_t session_id) const;
-  // Keyframes whose camera centre lies within radius_m of T's and whose optical axis is within
-  // max_angle_rad of T's, nearest first; `skip` filters candidates out.
+  // Keyframes (not culled) whose camera centre lies within radius_m of T's and whose optical
+  // axis is within max_angle_rad of T's, nearest first; `skip` filters candidates out.
   std::vector<int> Near(const Eigen::Isometry3d& T_world_camera, double radius_m,
                         double max_angle_rad, const std::function<bool(int)>& skip) const;
 

@@ -165,6 +165,63 @@ bool MapPoints::Fuse(int64_t keep, int64_t drop) {
   return true;
 }
 
+int64_t MapPoints::Restore(int64_t session_id, const Eigen::Vector3d& position_world,
+                           std::vector<MapPointObservation> observations) {
+  std::sort(observations.begin(), observations.end(),
+            [](const MapPointObservation& a, const MapPointObservation& b) {
+              return a.keyframe < b.keyframe;
+            });
+  observations.erase(std::unique(observations.begin(), observations.end(),
+                                 [](const MapPointObservation& a, const MapPointObservation& b) {
+                                   return a.keyframe == b.keyframe;
+                                 }),
+                     observations.end());
+  observations.erase(std::remove_if(observations.begin(), observations.end(),
+                                    [](const MapPointObservation& o) { return o.keyframe < 0; }),
+                     observations.end());
+  if (observations.empty()) return -1;
+  const int64_t id = next_id_++;
+  MapPointState& point = points_[id];
+  point.id = id;
+  point.position_world = position_world;
+  point.session_id = session_id;
+  point.tracker_id = -1;  // no tracker names it yet
+  for (const MapPointObservation& o : observations) {
+    if (points_of_keyframe_.size() <= static_cast<size_t>(o.keyframe)) {
+      points_of_keyframe_.resize(static_cast<size_t>(o.keyframe) + 1);
+    }
+    points_of_keyframe_[static_cast<size_t>(o.keyframe)].push_back(id);
+  }
+  num_observations_ += observations.size();
+  point.observations = std::move(observations);
+  return id;
+}
+
+int64_t MapPoints::TrackerIdFor(int64_t session_id, int64_t id) {
+  const auto it = points_.find(id);
+  if (it == points_.end()) return -1;
+  MapPointState& point = it->second;
+  if (point.session_id == session_id && point.tracker_id >= 0) return point.tracker_id;
+  for (const auto& [session, tracker_id] : point.aliases) {
+    if (session == session_id) return tracker_id;
+  }
+  const std::pair<int64_t, int64_t> alias{session_id, kForeignTrackerIdBase + id};
+  by_tracker_id_[alias] = id;
+  point.aliases.push_back(alias);
+  return alias.second;
+}
+
+void MapPoints::ForEach(const std::function<void(const MapPointState&)>& visit) const {
+  for (const auto& [id, point] : points_) visit(point);
+}
+
+void MapPoints::RemoveKeyframe(int keyframe) {
+  if (keyframe < 0 || static_cast<size_t>(keyframe) >= points_of_keyframe_.size()) return;
+  // A copy: RemoveObservation edits the keyframe's list.
+  const std::vector<int64_t> seen = points_of_keyframe_[static_cast<size_t>(keyframe)];
+  for (int64_t id : seen) RemoveObservation(id, keyframe);
+}
+
 void MapPoints::RemoveObservation(int64_t id, int keyframe) {
   const auto it = points_.find(id);
   if (it == points_.end()) return;

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <unordered_map>
 #include <utility>
@@ -90,6 +91,22 @@ class MapPoints {
   // tracker id names keep from now on. False (nothing changed) when either is unknown or they
   // are the same point.
   bool Fuse(int64_t keep, int64_t drop);
+  // A point read back from the store (a restarted server), created by session `session_id`,
+  // observed by `observations` (graph nodes, any order; one per keyframe is kept). It has no
+  // tracker id until a session's tracker is given it (TrackerIdFor) and is not culled as a
+  // recent point. Returns its id; -1 (nothing added) without an observation.
+  int64_t Restore(int64_t session_id, const Eigen::Vector3d& position_world,
+                  std::vector<MapPointObservation> observations);
+  // The id session `session_id`'s tracker knows point `id` by: the tracker id it created the
+  // point under, or an alias. A point it never named (another session's, a restored one) gets
+  // the alias kForeignTrackerIdBase + id, a range trackers never issue, so keypoints its
+  // keyframes match to that id become observations of this point. -1 for an unknown point.
+  int64_t TrackerIdFor(int64_t session_id, int64_t id);
+  static constexpr int64_t kForeignTrackerIdBase = int64_t{1} << 62;
+  void ForEach(const std::function<void(const MapPointState&)>& visit) const;
+  // Removes every observation of `keyframe` (a culled keyframe); points left without one are
+  // removed.
+  void RemoveKeyframe(int keyframe);
   // Removes the observation; a point left without observations is removed.
   void RemoveObservation(int64_t id, int keyframe);
   // Culls the session's points that are old enough and still observed too rarely (options);

@@ -58,6 +58,7 @@ Status SlamBackendOptions::Validate() const {
     return InvalidArgumentError(
         "slam tracking map: counts and radius >= 0, angle in [0, 180] degrees");
   }
+  SEMMAP_RETURN_IF_ERROR(culling.Validate().WithContext("slam"));
   return local_ba.Validate().WithContext("slam");
 }
 
@@ -83,6 +84,7 @@ StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id,
     for (TrajectoryPose& p : frames) snapshot.frames.emplace_back(s.id, p);
   }
   SEMMAP_ASSIGN_OR_RETURN(snapshot.links, store.ListLinks(map_id));
+  SEMMAP_ASSIGN_OR_RETURN(snapshot.map_points, store.ListMapPoints(map_id));
   return snapshot;
 }
 
@@ -184,6 +186,7 @@ void SlamBackend::Restore(const MapSnapshot& snapshot) {
         link.kind == LinkKind::kLoop ? PoseGraphEdgeKind::kLoop : PoseGraphEdgeKind::kOdometry;
     graph_.AddEdge(edge);
   }
+  RestoreMapPoints(snapshot.map_points);
   // Each stored frame follows the latest keyframe at or before it, as it did when tracked.
   std::map<int64_t, std::pair<int64_t, Eigen::Isometry3d>> last_keyframe;  // by session
   for (const auto& [session_id, pose] : snapshot.frames) {
@@ -278,8 +281,18 @@ void SlamBackend::OnStop() {
 }
 
 void SlamBackend::HandleFrame(const FrameAnchorEvent& event) {
-  AddAnchor(event.session_id, {event.seq, event.anchor_seq, event.T_anchor_frame});
-  const std::optional<int> anchor = graph_.Find(event.session_id, event.anchor_seq);
+  std::optional<int> anchor = graph_.Find(event.session_id, event.anchor_seq);
+  FrameAnchor added{event.seq, event.anchor_seq, event.T_anchor_frame};
+  if (anchor && graph_.node(*anchor).culled) {
+    // Culled since the tracker chose it: the frame follows the previous kept keyframe.
+    if (const std::optional<int> kept = graph_.PreviousKept(*anchor)) {
+      added.T_anchor_frame = graph_.node(*kept).T_world_keyframe.inverse() *
+                             graph_.node(*anchor).T_world_keyframe * event.T_anchor_frame;
+      added.anchor_seq = graph_.node(*kept).seq;
+      anchor = kept;
+    }
+  }
+  AddAnchor(event.session_id, added);
   if (!anchor) return;  // its keyframe never reached the graph (unregistered session)
   // A frame tracked before its session applied the latest correction was stored in the old
   // frame: move it now.
@@ -330,7 +343,9 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
     map_points_.AddKeyframe(added.session_id, index, added.index_in_session, *added.features,
                             added.T_world_keyframe, event.point_ids);
     keyframes_since_final_ba_ = true;
+    map_points_changed_ = true;
     LocalBundleAdjust(index);
+    CullKeyframes(index);
   }
 
   std::optional<LoopClosureInfo> loop = CloseLoop(index);
@@ -562,9 +577,10 @@ void SlamBackend::PublishTrackingMap(int index) {
     if (static_cast<int>(keyframes.size()) > options_.tracking_map_covisible_keyframes) break;
     keyframes.push_back(k);
   }
+  // Keyframes of other sessions (earlier ones, a restored map's) count once a loop has joined
+  // them to this session's frame: their points are where the tracker is.
   const auto skip = [&](int k) {
-    const GraphKeyframe& node = graph_.node(k);
-    return node.session_id != newest.session_id || !graph_.SameComponent(k, index) ||
+    return !graph_.SameComponent(k, index) ||
            std::find(keyframes.begin(), keyframes.end(), k) != keyframes.end();
   };
   int near = 0;
@@ -578,12 +594,12 @@ void SlamBackend::PublishTrackingMap(int index) {
   for (int k : keyframes) {
     for (int64_t id : map_points_.PointsOf(k)) {
       if (static_cast<int>(update->ids.size()) >= options_.tracking_map_max_points) break;
+      if (!graph_.SameComponent(k, index) || !taken.insert(id).second) continue;
       const MapPointState* point = map_points_.Find(id);
-      if (point->session_id != newest.session_id || !taken.insert(id).second) continue;
       // The descriptor and scale of its newest observation.
       const MapPointObservation& o = point->observations.back();
       const FrameFeatures& f = *graph_.node(o.keyframe).features;
-      update->ids.push_back(point->tracker_id);
+      update->ids.push_back(map_points_.TrackerIdFor(newest.session_id, id));
       update->positions_world.push_back(point->position_world);
       update->octaves.push_back(f.keypoints[static_cast<size_t>(o.keypoint)].octave);
       update->descriptors.push_back(f.descriptors.row(o.keypoint));
@@ -601,17 +617,12 @@ void SlamBackend::ApplyMovedPoses(const PosesBefore& before, bool move_points) {
     if (Moved(T_old, graph_.node(i).T_world_keyframe)) moved.emplace_back(i, T_old);
   }
   if (moved.empty()) return;
-  if (pose_listener_) {
-    std::vector<KeyframePose> poses;
-    for (const auto& [i, T_old] : moved) {
-      const GraphKeyframe& k = graph_.node(i);
-      poses.push_back({k.session_id, k.seq, k.T_world_keyframe});
-    }
-    pose_listener_(std::move(poses), true);
-  }
+  std::vector<KeyframePose> poses;                 // for the listener (map layers, objects)
   std::map<int, Eigen::Isometry3d> correction_of;  // T_new_old per moved node
   for (const auto& [i, T_old] : moved) {
     const GraphKeyframe& k = graph_.node(i);
+    // A culled keyframe's place is where its frame, anchored to a kept one, is (below).
+    if (!k.culled) poses.push_back({k.session_id, k.seq, k.T_world_keyframe});
     const Eigen::Isometry3d T_new_old = k.T_world_keyframe * T_old.inverse();
     if (move_points) correction_of[i] = T_new_old;
     // Every frame anchored to a moved keyframe is rewritten.
@@ -619,11 +630,22 @@ void SlamBackend::ApplyMovedPoses(const PosesBefore& before, bool move_points) {
     if (anchored == anchors_of_keyframe_.end()) continue;
     const std::vector<FrameAnchor>& anchors = anchors_[k.session_id];
     for (size_t a : anchored->second) {
-      pending_.pose_updates.push_back(
-          {k.session_id, anchors[a].seq, k.T_world_keyframe * anchors[a].T_anchor_frame});
+      const Eigen::Isometry3d T = k.T_world_keyframe * anchors[a].T_anchor_frame;
+      pending_.pose_updates.push_back({k.session_id, anchors[a].seq, T});
+      if (anchors[a].seq == k.seq) continue;
+      // A culled keyframe re-anchored here follows as its frame does.
+      const std::optional<int> culled = graph_.Find(k.session_id, anchors[a].seq);
+      if (culled && graph_.node(*culled).culled) {
+        graph_.SetPose(*culled, T);
+        poses.push_back({k.session_id, anchors[a].seq, T});
+      }
     }
   }
-  if (move_points) map_points_.MoveWithKeyframes(correction_of);
+  if (pose_listener_) pose_listener_(std::move(poses), true);
+  if (move_points) {
+    map_points_.MoveWithKeyframes(correction_of);
+    map_points_changed_ = map_points_changed_ || map_points_.size() > 0;
+  }
   std::lock_guard lock(mutex_);
   // Each live session's tracker follows its latest keyframe.
   for (auto& [session_id, state] : sessions_) {
@@ -660,6 +682,86 @@ void SlamBackend::FuseLoopPoints(const LoopClosureInfo& loop) {
   stats_.map_points_fused += fused;
 }
 
+void SlamBackend::RestoreMapPoints(const std::vector<MapPointRecord>& records) {
+  uint64_t restored = 0;
+  std::vector<MapPointObservation> observations;
+  for (const MapPointRecord& record : records) {
+    if (!record.position_world.allFinite()) continue;
+    observations.clear();
+    for (const MapPointObservationRecord& o : record.observations) {
+      // Keyframes left out (unreadable features, a live session's) take their observations.
+      const std::optional<int> keyframe = graph_.Find(o.session_id, o.seq);
+      if (!keyframe || o.keypoint < 0 ||
+          static_cast<size_t>(o.keypoint) >= graph_.node(*keyframe).features->size()) {
+        continue;
+      }
+      observations.push_back({*keyframe, o.keypoint});
+    }
+    if (map_points_.Restore(record.session_id, record.position_world, observations) >= 0) {
+      ++restored;
+    }
+  }
+  std::lock_guard lock(mutex_);
+  stats_.restored_map_points += restored;
+  stats_.map_points = map_points_.size();
+  stats_.map_point_observations = map_points_.num_observations();
+}
+
+void SlamBackend::CullKeyframes(int newest) {
+  const std::vector<int> culled =
+      CullRedundantKeyframes(newest, graph_, map_points_, options_.culling);
+  for (int k : culled) {
+    if (places_.Contains(k) && !places_.Remove(k).ok()) {
+      LogWarning("{}: culled keyframe {} stays in the place database", name(), k);
+    }
+    bow_.erase(k);
+    ReanchorFrames(k);
+  }
+  if (culled.empty()) return;
+  std::lock_guard lock(mutex_);
+  stats_.keyframes_culled += culled.size();
+}
+
+void SlamBackend::ReanchorFrames(int k) {
+  const GraphKeyframe& gone = graph_.node(k);
+  const std::optional<int> kept = graph_.PreviousKept(k);
+  if (!kept) return;  // a session's first keyframe is never culled
+  const GraphKeyframe& to = graph_.node(*kept);
+  const Eigen::Isometry3d T_kept_gone = to.T_world_keyframe.inverse() * gone.T_world_keyframe;
+  const auto from = anchors_of_keyframe_.find({gone.session_id, gone.seq});
+  if (from == anchors_of_keyframe_.end()) return;
+  std::vector<FrameAnchor>& anchors = anchors_[gone.session_id];
+  std::vector<size_t>& of_kept = anchors_of_keyframe_[{to.session_id, to.seq}];
+  for (size_t position : from->second) {
+    FrameAnchor& anchor = anchors[position];
+    anchor.T_anchor_frame = T_kept_gone * anchor.T_anchor_frame;
+    anchor.anchor_seq = to.seq;
+    of_kept.push_back(position);
+  }
+  std::sort(of_kept.begin(), of_kept.end());
+  anchors_of_keyframe_.erase(from);
+}
+
+void SlamBackend::SaveMapPoints() {
+  if (!map_points_changed_) return;
+  map_points_changed_ = false;
+  std::vector<MapPointRecord> records;
+  records.reserve(map_points_.size());
+  map_points_.ForEach([&](const MapPointState& point) {
+    MapPointRecord& record = records.emplace_back();
+    record.point_id = point.id;
+    record.session_id = point.session_id;
+    record.position_world = point.position_world;
+    for (const MapPointObservation& o : point.observations) {
+      const GraphKeyframe& k = graph_.node(o.keyframe);
+      record.observations.push_back({k.session_id, k.seq, o.keypoint});
+    }
+  });
+  pending_.map_points.emplace_back(map_id_, std::move(records));
+  std::lock_guard lock(mutex_);
+  ++stats_.map_point_saves;
+}
+
 void SlamBackend::FinalBundleAdjust() {
   keyframes_since_final_ba_ = false;
   const Clock::time_point t0 = Clock::now();
@@ -691,6 +793,7 @@ Status SlamBackend::OnFlush() {
   if (options_.local_ba.enabled && options_.local_ba.final_ba && keyframes_since_final_ba_) {
     FinalBundleAdjust();
   }
+  SaveMapPoints();
   SubmitPending();
   return writes_.WaitAndTakeError();
 }

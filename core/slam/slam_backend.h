@@ -29,6 +29,7 @@
 #include "core/odometry/local_map.h"
 #include "core/sensor/frame_features.h"
 #include "core/slam/bow_vocabulary.h"
+#include "core/slam/keyframe_culling.h"
 #include "core/slam/keyframe_graph.h"
 #include "core/slam/local_bundle_adjustment.h"
 #include "core/slam/loop_verifier.h"
@@ -47,6 +48,8 @@ struct SlamBackendOptions {
   // After each keyframe that names its map points (KeyframeEvent::point_ids). When keyframes
   // queue up behind it, the window shrinks to half (one waiting) or the run is skipped (more).
   LocalBundleAdjustmentOptions local_ba;
+  // After each local BA, among the new keyframe's covisible ones (needs local_ba).
+  KeyframeCullingOptions culling;
   // The points sent back to a session's tracker after each local BA: those observed by the
   // newest keyframe's most covisible keyframes and by its keyframes near the newest one's
   // pose (a revisited place), at most tracking_map_max_points. 0 keyframes: nothing is sent.
@@ -125,6 +128,7 @@ struct MapSnapshot {
   std::vector<KeyframeRecord> keyframes;  // with features; those without are not restored
   std::vector<std::pair<int64_t, TrajectoryPose>> frames;  // (session_id, pose)
   std::vector<LinkRecord> links;
+  std::vector<MapPointRecord> map_points;
 };
 
 // Reads a map's snapshot from the store, leaving out the sessions in `skip` (live ones: their
@@ -152,6 +156,8 @@ struct SlamBackendStats {
   uint64_t keyframes = 0;
   uint64_t restored_keyframes = 0;
   uint64_t unreadable_keyframes = 0;  // stored features that did not decode: left out
+  uint64_t restored_map_points = 0;
+  uint64_t map_point_saves = 0;  // snapshots of the map points written to the store
   uint64_t candidates = 0;
   uint64_t loops_accepted = 0;
   uint64_t rejected_geometry = 0;
@@ -167,6 +173,7 @@ struct SlamBackendStats {
   uint64_t local_ba_shrunk = 0;        // keyframes waiting: half the window
   uint64_t local_ba_skipped = 0;       // keyframes waiting: no run
   uint64_t final_ba_runs = 0;
+  uint64_t keyframes_culled = 0;  // redundant: left the graph's search, BA and place database
   uint64_t ba_outliers_removed = 0;
   uint64_t map_points_culled = 0;
   uint64_t map_points_fused = 0;  // across accepted loops
@@ -262,6 +269,11 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   bool OptimiseAndCorrect(bool check_new_loop = false);
   void LocalBundleAdjust(int index);
   void FinalBundleAdjust();  // options_.local_ba.final_ba
+  void RestoreMapPoints(const std::vector<MapPointRecord>& records);
+  void CullKeyframes(int newest);
+  // The frames anchored to culled keyframe `k` follow the session's previous kept keyframe.
+  void ReanchorFrames(int k);
+  void SaveMapPoints();  // when changed: every point of the map, replacing the stored ones
   // Fuses the map points the loop's inlier matches show to be the same on both sides, so
   // bundle adjustment sees the loop through shared points.
   void FuseLoopPoints(const LoopClosureInfo& loop);
@@ -294,7 +306,8 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   MapPoints map_points_;
   std::atomic<int> queued_keyframes_{0};  // added, not yet handled
   bool keyframes_since_final_ba_ = false;
-  int deferred_loops_ = 0;  // consistent loops added since the last optimisation
+  bool map_points_changed_ = false;  // since they were last written to the store
+  int deferred_loops_ = 0;           // consistent loops added since the last optimisation
 
   PendingWrites writes_;      // the worker's batches, and the errors Drain reports
   mutable std::mutex mutex_;  // sessions_, stats_

@@ -190,12 +190,32 @@ ALTER TABLE sessions ADD COLUMN end_reason INTEGER CHECK (end_reason BETWEEN 1 A
 ALTER TABLE sessions ADD COLUMN end_message TEXT;
 )sql";
 
+// Version 5: the SLAM back end's map points, replaced per map as a whole (WriteBatch::
+// map_points). observations names keyframes by (session_id, seq) in a count-prefixed BLOB
+// (storage/sqlite/map_point_codec.h), not by foreign key: a point outlives a removed session
+// that observed it (RemoveSession rewrites the blobs), and ListMapPoints drops observations of
+// keyframes that are not stored. Removing the map cascades.
+constexpr char kSchemaV5[] = R"sql(
+CREATE TABLE map_points (
+  map_id INTEGER NOT NULL REFERENCES maps(id) ON DELETE CASCADE,
+  point_id INTEGER NOT NULL,
+  session_id INTEGER NOT NULL,
+  x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL,
+  observations BLOB NOT NULL,
+  PRIMARY KEY (map_id, point_id)
+) STRICT;
+)sql";
+
+// One step a line: clang-format would pack them into columns.
+// clang-format off
 constexpr Migration kMigrations[] = {
     {1, "initial schema", kSchemaV1},
     {2, "keyframe features", kSchemaV2},
     {3, "objects", kSchemaV3},
     {4, "session end reasons", kSchemaV4},
+    {5, "map points", kSchemaV5},
 };
+// clang-format on
 
 }  // namespace
 

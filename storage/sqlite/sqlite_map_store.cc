@@ -286,10 +286,12 @@ StatusOr<RemovedCounts> SqliteMapStore::RemoveSession(int64_t session_id) {
   }
   counts.map_id = map_id;
   // Frames, keyframes (with their features, links and observations) follow by cascade; the
-  // derived products of the map no longer match what is left.
+  // derived products of the map no longer match what is left. Map points stay, without the
+  // session's observations.
   SEMMAP_RETURN_IF_ERROR(RunWithId("DELETE FROM sessions WHERE id = ?1", session_id));
   SEMMAP_RETURN_IF_ERROR(RunWithId("DELETE FROM object_instances WHERE map_id = ?1", map_id));
   SEMMAP_RETURN_IF_ERROR(RunWithId("DELETE FROM blobs WHERE map_id = ?1", map_id));
+  SEMMAP_RETURN_IF_ERROR(DropSessionFromMapPoints(map_id, session_id));
   SEMMAP_RETURN_IF_ERROR(transaction.Commit());
   return counts;
 }

@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/status.h"
@@ -44,12 +45,16 @@ class SqliteMapStore final : public MapStore {
   Status EndSession(int64_t session_id, int64_t ended_unix_ns, SessionEndReason reason,
                     const std::string& message) override;
   StatusOr<int64_t> MarkOpenSessionsCrashed() override;
-  // One transaction each.
+  // One transaction each. RemoveSession keeps the map's points but takes the session's
+  // observations out of them (a point left without any goes); a point whose observations
+  // blob is corrupt is left as it is (ListMapPoints keeps reporting it).
   StatusOr<RemovedCounts> RemoveSession(int64_t session_id) override;
   StatusOr<RemovedCounts> RemoveMap(int64_t map_id) override;
 
   // One transaction. Frames are upserted by (session_id, seq); links may name keyframes by id
-  // or, with id 0, by (session_id, seq), including keyframes of the same batch.
+  // or, with id 0, by (session_id, seq), including keyframes of the same batch. Map points are
+  // stored as given: neither their session nor their observations' keyframes are checked (the
+  // read leaves out observations of keyframes that are not stored).
   StatusOr<WriteResult> Write(const WriteBatch& batch) override;
   StatusOr<std::vector<TrajectoryPose>> GetTrajectory(int64_t session_id,
                                                       bool keyframes_only) override;
@@ -59,6 +64,9 @@ class SqliteMapStore final : public MapStore {
                                                       bool with_images) override;
   StatusOr<std::vector<KeyframeRecord>> ListKeyframeFeatures(int64_t session_id) override;
   StatusOr<std::vector<LinkRecord>> ListLinks(int64_t map_id) override;
+  // Ordered by point id. NOT_FOUND for an unknown map; DATA_LOSS naming the point for an
+  // observations blob that does not decode.
+  StatusOr<std::vector<MapPointRecord>> ListMapPoints(int64_t map_id) override;
   // Also moves the frames (trajectory rows) of those keyframes, so a keyframe has one pose.
   Status UpdateKeyframePoses(
       const std::vector<std::pair<int64_t, Eigen::Isometry3d>>& T_world_keyframe) override;
@@ -113,6 +121,20 @@ class SqliteMapStore final : public MapStore {
   Status WriteBlob(const MapBlob& blob);
   Status WriteKeyframeFeatures(int64_t keyframe_id, const KeyframeRecord& keyframe);
   Status ApplyPoseUpdate(const PoseUpdate& update);
+  // Map points (schema v5): the map's rows are deleted, then each point inserted.
+  // INVALID_ARGUMENT for a non-finite position, a negative keypoint or a repeated point id.
+  Status ReplaceMapPoints(int64_t map_id, const std::vector<MapPointRecord>& points);
+  Status WriteMapPoint(int64_t map_id, const MapPointRecord& point);
+  // Part of RemoveSession: takes the session's observations out of the map's points and deletes
+  // the points left without any. Session ids can be reused once the largest is removed, so the
+  // read-time filter of ListMapPoints alone could hand them to a later session's keyframes.
+  Status DropSessionFromMapPoints(int64_t map_id, int64_t session_id);
+  // Replaces a point's observations, or deletes the point when there are none.
+  Status RewriteMapPointObservations(int64_t map_id, int64_t point_id,
+                                     const std::vector<MapPointObservationRecord>& observations);
+  // (session_id, seq) of the map's stored keyframes, sorted.
+  using KeyframeKeys = std::vector<std::pair<int64_t, int64_t>>;
+  StatusOr<KeyframeKeys> StoredKeyframeKeys(int64_t map_id);
   Status ReadKeyframeFeatures(KeyframeRecord& keyframe);
   // Observations and instances (sqlite_map_store_objects.cc).
   Status WriteObservation(const ObjectObservation& observation);

@@ -1,5 +1,7 @@
-// SqliteMapStore: trajectory, keyframe, link and blob reads.
+// SqliteMapStore: trajectory, keyframe, link, map point and blob reads.
+#include <algorithm>
 
+#include "storage/sqlite/map_point_codec.h"
 #include "storage/sqlite/row_codec.h"
 #include "storage/sqlite/sqlite_map_store.h"
 
@@ -149,6 +151,71 @@ StatusOr<std::vector<LinkRecord>> SqliteMapStore::ListLinks(int64_t map_id) {
     link.to_seq = stmt->ColumnInt64(16);
   }
   return links;
+}
+
+StatusOr<SqliteMapStore::KeyframeKeys> SqliteMapStore::StoredKeyframeKeys(int64_t map_id) {
+  SEMMAP_ASSIGN_OR_RETURN(StatementLease stmt,
+                          db_->Prepare("SELECT k.session_id, k.seq FROM keyframes k"
+                                       " JOIN sessions s ON s.id = k.session_id WHERE s.map_id = ?1"
+                                       " ORDER BY k.session_id, k.seq"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, map_id));
+  KeyframeKeys keys;
+  for (;;) {
+    SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+    if (!row) break;
+    keys.emplace_back(stmt->ColumnInt64(0), stmt->ColumnInt64(1));
+  }
+  return keys;
+}
+
+namespace {
+
+// Columns point_id, session_id, x, y, z, observations of the query in ListMapPoints.
+StatusOr<MapPointRecord> MapPointFromRow(const sqlite::Statement& stmt, int64_t map_id) {
+  MapPointRecord point;
+  point.point_id = stmt.ColumnInt64(0);
+  point.session_id = stmt.ColumnInt64(1);
+  point.position_world =
+      Eigen::Vector3d(stmt.ColumnDouble(2), stmt.ColumnDouble(3), stmt.ColumnDouble(4));
+  StatusOr<std::vector<MapPointObservationRecord>> observations =
+      sqlite::DecodeMapPointObservations(stmt.ColumnBlob(5));
+  if (!observations.ok()) {
+    return observations.status().WithContext("map point id " + std::to_string(point.point_id) +
+                                             " of map id " + std::to_string(map_id));
+  }
+  point.observations = std::move(observations).value();
+  return point;
+}
+
+// Observations name keyframes by (session_id, seq), not by foreign key, so those of a removed
+// session (or of keyframes never stored) are still in the blob: they are dropped here.
+void DropUnstoredObservations(std::vector<MapPointObservationRecord>& observations,
+                              const std::vector<std::pair<int64_t, int64_t>>& stored_keys) {
+  std::erase_if(observations, [&](const MapPointObservationRecord& o) {
+    return !std::binary_search(stored_keys.begin(), stored_keys.end(),
+                               std::make_pair(o.session_id, o.seq));
+  });
+}
+
+}  // namespace
+
+StatusOr<std::vector<MapPointRecord>> SqliteMapStore::ListMapPoints(int64_t map_id) {
+  SEMMAP_RETURN_IF_ERROR(MapName(map_id).status());
+  SEMMAP_ASSIGN_OR_RETURN(const KeyframeKeys stored_keys, StoredKeyframeKeys(map_id));
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare("SELECT point_id, session_id, x, y, z, observations FROM map_points"
+                   " WHERE map_id = ?1 ORDER BY point_id"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, map_id));
+  std::vector<MapPointRecord> points;
+  for (;;) {
+    SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+    if (!row) break;
+    SEMMAP_ASSIGN_OR_RETURN(MapPointRecord point, MapPointFromRow(*stmt, map_id));
+    DropUnstoredObservations(point.observations, stored_keys);
+    if (!point.observations.empty()) points.push_back(std::move(point));
+  }
+  return points;
 }
 
 StatusOr<MapBlob> SqliteMapStore::GetBlob(int64_t map_id, const std::string& kind) {

@@ -4,6 +4,7 @@
 
 #include "common/sha256.h"
 #include "common/time_util.h"
+#include "storage/sqlite/map_point_codec.h"
 #include "storage/sqlite/row_codec.h"
 #include "storage/sqlite/sqlite_map_store.h"
 #include "storage/sqlite/transaction.h"
@@ -60,6 +61,10 @@ StatusOr<WriteResult> SqliteMapStore::Write(const WriteBatch& batch) {
     SEMMAP_RETURN_IF_ERROR(
         ReplaceInstances(map_id, instances)
             .WithContext("object instances of map id " + std::to_string(map_id)));
+  }
+  for (const auto& [map_id, points] : batch.map_points) {
+    SEMMAP_RETURN_IF_ERROR(ReplaceMapPoints(map_id, points)
+                               .WithContext("map points of map id " + std::to_string(map_id)));
   }
   SEMMAP_RETURN_IF_ERROR(transaction.Commit());
   return result;
@@ -216,6 +221,79 @@ Status SqliteMapStore::WriteBlob(const MapBlob& blob) {
       5, std::string_view(reinterpret_cast<const char*>(digest.data()), digest.size())));
   SEMMAP_RETURN_IF_ERROR(
       stmt->BindInt64(6, blob.updated_unix_ns > 0 ? blob.updated_unix_ns : UnixNowNs()));
+  return stmt->Run();
+}
+
+Status SqliteMapStore::ReplaceMapPoints(int64_t map_id, const std::vector<MapPointRecord>& points) {
+  SEMMAP_RETURN_IF_ERROR(MapName(map_id).status());
+  SEMMAP_RETURN_IF_ERROR(RunWithId("DELETE FROM map_points WHERE map_id = ?1", map_id));
+  for (const MapPointRecord& point : points) {
+    SEMMAP_RETURN_IF_ERROR(
+        WriteMapPoint(map_id, point).WithContext("map point id " + std::to_string(point.point_id)));
+  }
+  return OkStatus();
+}
+
+Status SqliteMapStore::WriteMapPoint(int64_t map_id, const MapPointRecord& point) {
+  // SQLite would store NaN as NULL, which NOT NULL refuses with a vaguer message.
+  if (!point.position_world.allFinite()) return InvalidArgumentError("position is not finite");
+  SEMMAP_ASSIGN_OR_RETURN(std::string observations,
+                          sqlite::EncodeMapPointObservations(point.observations));
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare("INSERT INTO map_points (map_id, point_id, session_id, x, y, z, observations)"
+                   " VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)"));
+  const Eigen::Vector3d& p = point.position_world;
+  SEMMAP_RETURN_IF_ERROR(stmt->BindAll(map_id, point.point_id, point.session_id, p.x(), p.y(),
+                                       p.z(), sqlite::Blob{observations}));
+  Status inserted = stmt->Run();
+  if (inserted.code() == StatusCode::kAlreadyExists) {
+    return InvalidArgumentError("the point id appears twice in the map's points");
+  }
+  return inserted;
+}
+
+Status SqliteMapStore::DropSessionFromMapPoints(int64_t map_id, int64_t session_id) {
+  // The points to rewrite are collected first: the SELECT finishes before its rows change.
+  std::vector<std::pair<int64_t, std::vector<MapPointObservationRecord>>> changed;
+  {
+    SEMMAP_ASSIGN_OR_RETURN(
+        StatementLease stmt,
+        db_->Prepare("SELECT point_id, observations FROM map_points WHERE map_id = ?1"));
+    SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, map_id));
+    for (;;) {
+      SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+      if (!row) break;
+      StatusOr<std::vector<MapPointObservationRecord>> observations =
+          sqlite::DecodeMapPointObservations(stmt->ColumnBlob(1));
+      if (!observations.ok()) continue;  // corrupt: ListMapPoints keeps reporting it
+      if (std::erase_if(*observations, [session_id](const MapPointObservationRecord& o) {
+            return o.session_id == session_id;
+          }) > 0) {
+        changed.emplace_back(stmt->ColumnInt64(0), std::move(observations).value());
+      }
+    }
+  }
+  for (const auto& [point_id, observations] : changed) {
+    SEMMAP_RETURN_IF_ERROR(RewriteMapPointObservations(map_id, point_id, observations));
+  }
+  return OkStatus();
+}
+
+Status SqliteMapStore::RewriteMapPointObservations(
+    int64_t map_id, int64_t point_id, const std::vector<MapPointObservationRecord>& observations) {
+  if (observations.empty()) {
+    SEMMAP_ASSIGN_OR_RETURN(
+        StatementLease stmt,
+        db_->Prepare("DELETE FROM map_points WHERE map_id = ?1 AND point_id = ?2"));
+    SEMMAP_RETURN_IF_ERROR(stmt->BindAll(map_id, point_id));
+    return stmt->Run();
+  }
+  SEMMAP_ASSIGN_OR_RETURN(std::string bytes, sqlite::EncodeMapPointObservations(observations));
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare("UPDATE map_points SET observations = ?3 WHERE map_id = ?1 AND point_id = ?2"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindAll(map_id, point_id, sqlite::Blob{bytes}));
   return stmt->Run();
 }
 

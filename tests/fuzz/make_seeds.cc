@@ -4,6 +4,7 @@
 //   cloud_pcd       binary PCDs of a filtered cloud, a few points, no points
 //   bow_vocabulary  vocabularies trained on random descriptors (a few shapes)
 //   feature_codec   keyframe features: ORB-like, SIFT-like (float), without descriptors, none
+//   map_point_observations  stored map point observations: none, one, several (extremes)
 //   image_decode, ingest_request, rpc_requests: make_wire_seeds.cc
 #include <octomap/OcTree.h>
 
@@ -22,6 +23,7 @@
 #include "core/mapping/point_cloud_map.h"
 #include "core/slam/bow_vocabulary.h"
 #include "core/slam/feature_codec.h"
+#include "storage/sqlite/map_point_codec.h"
 #include "tests/fuzz/make_wire_seeds.h"
 
 namespace semmap {
@@ -159,6 +161,16 @@ bool FeatureSeeds(const fs::path& dir) {
   return ok;
 }
 
+bool MapPointObservationSeeds(const fs::path& dir) {
+  using Observations = std::vector<MapPointObservationRecord>;
+  bool ok = WriteOr(dir, "none.bin", sqlite::EncodeMapPointObservations(Observations{}));
+  ok &= WriteOr(dir, "one.bin", sqlite::EncodeMapPointObservations(Observations{{1, 0, 17}}));
+  const Observations several = {
+      {1, 4, 0}, {2, 9, 311}, {3, 1'000'000, 2'147'483'647}, {9'000'000'000, 0, 5}};
+  ok &= WriteOr(dir, "several.bin", sqlite::EncodeMapPointObservations(several));
+  return ok;
+}
+
 }  // namespace
 }  // namespace semmap
 
@@ -172,6 +184,7 @@ int main(int argc, char** argv) {
   ok &= semmap::CloudSeeds(out / "cloud_pcd");
   ok &= semmap::VocabularySeeds(out / "bow_vocabulary");
   ok &= semmap::FeatureSeeds(out / "feature_codec");
+  ok &= semmap::MapPointObservationSeeds(out / "map_point_observations");
   ok &= semmap::fuzz::ImageSeeds(out / "image_decode");
   ok &= semmap::fuzz::IngestSeeds(out / "ingest_request");
   ok &= semmap::fuzz::RequestSeeds(out / "rpc_requests");

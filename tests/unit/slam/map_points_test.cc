@@ -52,6 +52,43 @@ TEST(MapPointsTest, KeyframesCreateAndObservePointsByTrackerId) {
   EXPECT_TRUE(points.PointsOf(7).empty());
 }
 
+// A restarted server's points: restored with their observations, unknown to every tracker
+// until a session is given one (under a foreign id), whose keyframes then observe it.
+TEST(MapPointsTest, RestoredPointsAreObservedByLaterSessionsUnderForeignIds) {
+  MapPoints points;
+  const FrameFeatures f = Features(4);
+  // Observations in any order, one per keyframe kept, negative keyframes dropped.
+  const int64_t a =
+      points.Restore(/*session_id=*/1, Eigen::Vector3d(1, 2, 3), {{2, 1}, {0, 3}, {2, 0}, {-1, 0}});
+  ASSERT_GE(a, 0);
+  EXPECT_EQ(points.Restore(1, Eigen::Vector3d::Zero(), {}), -1);
+  const MapPointState* p = points.Find(a);
+  ASSERT_NE(p, nullptr);
+  ASSERT_EQ(p->observations.size(), 2u);
+  EXPECT_EQ(p->observations[0].keyframe, 0);
+  EXPECT_EQ(p->observations[1].keyframe, 2);
+  EXPECT_EQ(points.num_observations(), 2u);
+  EXPECT_EQ(points.PointsOf(2), std::vector<int64_t>{a});
+  EXPECT_EQ(points.Covisible(0), (std::vector<std::pair<int, int>>{{2, 1}}));
+
+  // Session 5's tracker is told of the point under a foreign id (the same one every time).
+  const int64_t foreign = points.TrackerIdFor(5, a);
+  EXPECT_EQ(foreign, MapPoints::kForeignTrackerIdBase + a);
+  EXPECT_EQ(points.TrackerIdFor(5, a), foreign);
+  EXPECT_EQ(points.TrackerIdFor(5, a + 100), -1);
+  // Its keyframe matching that id observes the restored point instead of starting a new one.
+  EXPECT_EQ(points.AddKeyframe(5, 3, 0, f, At(0), {foreign, 0, -1, -1}), 2);
+  EXPECT_EQ(points.size(), 2u);
+  ASSERT_EQ(p->observations.size(), 3u);
+  EXPECT_EQ(p->observations[2].keyframe, 3);
+  // A point a session created keeps the tracker id it was created under.
+  const int64_t own = points.PointsOf(3)[1];
+  EXPECT_EQ(points.TrackerIdFor(5, own), 0);
+  int visited = 0;
+  points.ForEach([&](const MapPointState&) { ++visited; });
+  EXPECT_EQ(visited, 2);
+}
+
 TEST(MapPointsTest, CovisibilityAndTheLocalWindow) {
   MapPoints points;
   const FrameFeatures f = Features(6);

@@ -29,16 +29,16 @@ struct Keyframe {
   std::shared_ptr<const FrameFeatures> features;
 };
 
-// Keyframes every kKeyframeEvery frames of the first `frames` (<= kLapFrames + 1) of a circle
-// whose frame kLapFrames is back at frame 0's pose.
-std::vector<Keyframe> RenderKeyframes(int frames) {
+// Keyframes every `every` frames of the first `frames` (<= kLapFrames + 1) of a circle whose
+// frame kLapFrames is back at frame 0's pose.
+std::vector<Keyframe> RenderKeyframes(int frames, int every = kKeyframeEvery) {
   const CameraCalibration camera = synth::DefaultSyntheticCamera();
   synth::Renderer renderer = MakeRenderer(camera);
   StatusOr<FeatureExtractor> extractor = FeatureExtractor::Create({}, camera);
   EXPECT_TRUE(extractor.ok());
   const std::vector<StampedPose> poses = Circle(kLapFrames + 1);
   std::vector<Keyframe> out;
-  for (int i = 0; i < frames; i += kKeyframeEvery) {
+  for (int i = 0; i < frames; i += every) {
     const synth::RenderedFrame f = renderer.Render(poses[static_cast<size_t>(i)].T_world_camera);
     Keyframe kf;
     kf.seq = i;
@@ -58,6 +58,15 @@ Eigen::Isometry3d DriftedStep(const Eigen::Isometry3d& T_true_step) {
   step.linear() = step.linear() *
                   Eigen::AngleAxisd(0.6 * M_PI / 180, -Eigen::Vector3d::UnitY()).toRotationMatrix();
   return step;
+}
+
+// Solves bounded by time converge as far as the machine's speed allows (sanitizer builds are
+// several times slower): tests of what BA achieves let every solve run to convergence.
+SlamBackendOptions UnboundedSolves() {
+  SlamBackendOptions options;
+  options.local_ba.solver.max_solve_seconds = 0;
+  options.local_ba.final_ba_max_solve_seconds = 0;
+  return options;
 }
 
 class SlamBackendTest : public ::testing::Test {
@@ -302,6 +311,64 @@ TEST_F(SlamBackendTest, SessionAfterRestartJoinsTheStoredMap) {
   EXPECT_LT(worst, 0.02);
 }
 
+// The map points of a finished session are stored when it drains; a restarted server restores
+// them with the keyframes, and once a later session's loop joins it to the map, that session's
+// tracker is sent them (under foreign ids) to track against.
+TEST_F(SlamBackendTest, MapPointsPersistAndReachALaterSessionsTracker) {
+  StatusOr<BowVocabulary> vocabulary =
+      BowVocabulary::Load(std::string(SEMMAP_SOURCE_DIR) + "/models/orb_vocab.bin");
+  ASSERT_TRUE(vocabulary.ok()) << vocabulary.status().ToString();
+  auto words = std::make_shared<const BowVocabulary>(std::move(vocabulary).value());
+  const std::vector<Keyframe> lap = RenderKeyframes(kLapFrames + 1);
+  size_t first_points = 0;
+  {
+    std::unique_ptr<SlamBackend> first = Start(UnboundedSolves(), words);
+    Stream(*first, lap, std::nullopt, /*drift=*/false, /*point_ids=*/true);
+    ASSERT_TRUE(first->Drain().ok());
+    first_points = first->stats().map_points;
+    EXPECT_GE(first->stats().map_point_saves, 1u);
+    ASSERT_TRUE(first->Drain().ok());  // nothing changed: not written again
+    EXPECT_EQ(first->stats().map_point_saves, 1u);
+  }
+  ASSERT_GT(first_points, 500u);
+  auto stored_points = reader_->ListMapPoints(session_.map_id);
+  ASSERT_TRUE(stored_points.ok()) << stored_points.status().ToString();
+  EXPECT_EQ(stored_points->size(), first_points);
+
+  StatusOr<MapSnapshot> snapshot = MapSnapshot{};
+  ASSERT_TRUE(writer_
+                  ->RunSync([&](MapStore& store) {
+                    snapshot = ReadMapSnapshot(store, session_.map_id);
+                    return snapshot.status();
+                  })
+                  .ok());
+  ASSERT_TRUE(writer_
+                  ->RunSync([&](MapStore& s) -> Status {
+                    SessionInfo info = session_;
+                    info.name = "again";
+                    SEMMAP_ASSIGN_OR_RETURN(session_, s.CreateSession(info));
+                    return OkStatus();
+                  })
+                  .ok());
+  std::unique_ptr<SlamBackend> second = Start(UnboundedSolves(), words, &*snapshot);
+  EXPECT_EQ(second->stats().restored_map_points, first_points);
+  EXPECT_EQ(second->stats().map_points, first_points);
+  const std::vector<Keyframe> again(lap.begin() + 10, lap.begin() + 20);
+  Stream(*second, again, Eigen::Isometry3d::Identity(), /*drift=*/false, /*point_ids=*/true,
+         /*paced=*/true);
+  ASSERT_TRUE(second->Drain().ok());
+  ASSERT_GE(second->stats().loops_accepted, 1u);
+  ASSERT_NE(last_map_update_, nullptr);
+  const auto foreign =
+      std::count_if(last_map_update_->ids.begin(), last_map_update_->ids.end(),
+                    [](int64_t id) { return id >= MapPoints::kForeignTrackerIdBase; });
+  std::printf(
+      "restored %zu map points; the later session's last map update: %zu points, %ld "
+      "of the stored map\n",
+      first_points, last_map_update_->ids.size(), static_cast<long>(foreign));
+  EXPECT_GT(foreign, 100);
+}
+
 // The server's way: the back end reads the stored map itself, on its own thread through a read
 // connection (the storage writer is not involved), ahead of the new session's events, leaving
 // out the live session's keyframes (they arrive as events).
@@ -384,15 +451,6 @@ TEST_F(SlamBackendTest, PathThatNeverRevisitsHasNoLoop) {
   EXPECT_EQ(corrections_, 0);
 }
 
-// Solves bounded by time converge as far as the machine's speed allows (sanitizer builds are
-// several times slower): tests of what BA achieves let every solve run to convergence.
-SlamBackendOptions UnboundedSolves() {
-  SlamBackendOptions options;
-  options.local_ba.solver.max_solve_seconds = 0;
-  options.local_ba.final_ba_max_solve_seconds = 0;
-  return options;
-}
-
 // Local bundle adjustment over the keyframes' shared map points undoes most of a biased front
 // end's drift on a path that never revisits (no loop can help there), moves the session's
 // tracker and sends it the refined points.
@@ -442,6 +500,54 @@ TEST_F(SlamBackendTest, FinalBundleAdjustmentRunsWhenTheSessionDrains) {
   std::vector<Eigen::Isometry3d> adjusted;
   for (const KeyframeRecord& kf : *stored) adjusted.push_back(kf.T_world_camera);
   EXPECT_LT(MaxError(kfs, adjusted), MaxError(kfs, reported) / 4);
+}
+
+// Keyframes every other frame of a slow arc see much the same points: many are redundant and
+// culled, and the stored trajectory (every frame, including those anchored to culled
+// keyframes, which follow the previous kept one) stays as good as without culling. (The test's
+// tracker names points by 1 cm cells of their true position, so a point near a cell boundary
+// splits in two: 70-80 % of a keyframe's points reach 3 other keyframes here, not 90 %; the
+// test culls at 60 %.)
+TEST_F(SlamBackendTest, CullingDropsRedundantKeyframesAndKeepsTheTrajectory) {
+  const std::vector<Keyframe> kfs = RenderKeyframes(61, /*every=*/2);
+  const auto run = [&](bool cull, const std::string& session_name) {
+    EXPECT_TRUE(writer_
+                    ->RunSync([&](MapStore& s) -> Status {
+                      SessionInfo info = session_;
+                      info.name = session_name;
+                      SEMMAP_ASSIGN_OR_RETURN(session_, s.CreateSession(info));
+                      return OkStatus();
+                    })
+                    .ok());
+    SlamBackendOptions options = UnboundedSolves();
+    options.culling.enabled = cull;
+    options.culling.redundant_fraction = 0.6;
+    std::unique_ptr<SlamBackend> backend = Start(options);
+    Stream(*backend, kfs, std::nullopt, /*drift=*/true, /*point_ids=*/true, /*paced=*/true);
+    EXPECT_TRUE(backend->Drain().ok());
+    const SlamBackendStats stats = backend->stats();
+    auto trajectory = reader_->GetTrajectory(session_.id, /*keyframes_only=*/false);
+    EXPECT_TRUE(trajectory.ok());
+    EXPECT_EQ(trajectory->size(), 2 * kfs.size());
+    double worst = 0;
+    for (const TrajectoryPose& pose : *trajectory) {
+      const Keyframe& kf = kfs[static_cast<size_t>(pose.seq / 2)];
+      Eigen::Isometry3d T_true = kf.T_true;
+      if (pose.seq != kf.seq) T_true.translation() += kf.T_true.linear().col(2) * 0.01;
+      worst = std::max(worst, (pose.T_world_camera.translation() - T_true.translation()).norm());
+    }
+    return std::make_pair(stats, worst);
+  };
+  const auto [kept_stats, kept_error] = run(false, "all kept");
+  const auto [culled_stats, culled_error] = run(true, "culled");
+  std::printf("%zu keyframes: %lu culled; max frame error %.4f m culled, %.4f m all kept\n",
+              kfs.size(), static_cast<unsigned long>(culled_stats.keyframes_culled), culled_error,
+              kept_error);
+  EXPECT_EQ(kept_stats.keyframes_culled, 0u);
+  EXPECT_GE(culled_stats.keyframes_culled, kfs.size() / 4);
+  EXPECT_LT(culled_stats.map_point_observations, kept_stats.map_point_observations);
+  EXPECT_LT(culled_error, kept_error + 0.003);
+  EXPECT_LT(culled_error, 0.03);
 }
 
 // With loop-point fusion on, a closed lap's two sides share map points afterwards.

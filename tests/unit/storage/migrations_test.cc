@@ -222,5 +222,53 @@ TEST(MigrationsTest, Version3SessionsUpgradeToEndReasons) {
   EXPECT_OK(s.IntegrityCheck());
 }
 
+// A v4 database keeps its rows, gains the map_points table, and its keyframes can be observed.
+TEST(MigrationsTest, Version4DatabaseUpgradesToMapPointsKeepingItsData) {
+  TempDir dir;
+  const std::string path = dir.File("semmap.db");
+  {
+    auto db = Open(path);
+    ASSERT_NE(db, nullptr);
+    ASSERT_OK(ApplyMigrations(*db, SchemaMigrations().first(4)));
+    ASSERT_OK(db->Exec(
+        "INSERT INTO maps VALUES (1, 'lab', 5);"
+        "INSERT INTO sessions (id, map_id, name, mode, width, height, fx, fy, cx, cy, k1, k2, p1,"
+        " p2, k3, depth_scale, started_ns, ended_ns, end_reason) VALUES (1, 1, 's', 1, 640, 480,"
+        " 525, 525, 319.5, 239.5, 0, 0, 0, 0, 0, 5000, 7, 9, 1);"
+        "INSERT INTO keyframes VALUES (1, 1, 4, 99, 1, 2, 3, 0, 0, 0, 1, 'jpeg', x'01', 'png',"
+        " x'02', 5000);"));
+    EXPECT_EQ(*db->QueryInt64("SELECT COUNT(*) FROM sqlite_schema WHERE name = 'map_points'"), 0);
+  }
+  auto store = SqliteMapStore::Open(path, {});
+  ASSERT_OK(store.status());
+  SqliteMapStore& s = **store;
+  EXPECT_GE(LatestSchemaVersion(), 5);
+  EXPECT_EQ(*ReadSchemaVersion(s.connection()), LatestSchemaVersion());
+  const SessionInfo session = *s.GetSession("lab", "s");
+  EXPECT_EQ(session.end_reason, SessionEndReason::kCompleted);
+  EXPECT_EQ(session.keyframe_count, 1);
+  EXPECT_EQ((*s.ListKeyframes(1, false))[0].T_world_camera.translation(), Eigen::Vector3d(1, 2, 3));
+  EXPECT_TRUE(s.ListMapPoints(1)->empty());
+
+  MapPointRecord point;
+  point.point_id = 11;
+  point.session_id = 1;
+  point.position_world = Eigen::Vector3d(0.5, -1, 2);
+  point.observations = {{1, 4, 17}};
+  WriteBatch batch;
+  batch.map_points.emplace_back(1, std::vector<MapPointRecord>{point});
+  ASSERT_OK(s.Write(batch).status());
+  auto points = s.ListMapPoints(1);
+  ASSERT_OK(points.status());
+  ASSERT_EQ(points->size(), 1u);
+  EXPECT_EQ((*points)[0].position_world, point.position_world);
+  EXPECT_EQ((*points)[0].observations[0].keypoint, 17);
+  // STRICT: a position that is not a number is refused by the table itself.
+  EXPECT_FALSE(s.connection().Exec("UPDATE map_points SET x = 'far'").ok());
+  ASSERT_OK(s.RemoveMap(1).status());
+  EXPECT_EQ(*s.connection().QueryInt64("SELECT COUNT(*) FROM map_points"), 0);
+  EXPECT_OK(s.IntegrityCheck());
+}
+
 }  // namespace
 }  // namespace semmap::sqlite

@@ -72,6 +72,9 @@ class RecordingStore final : public MapStore {
     return inner_->ListKeyframeFeatures(id);
   }
   StatusOr<std::vector<LinkRecord>> ListLinks(int64_t id) override { return inner_->ListLinks(id); }
+  StatusOr<std::vector<MapPointRecord>> ListMapPoints(int64_t id) override {
+    return inner_->ListMapPoints(id);
+  }
   Status UpdateKeyframePoses(
       const std::vector<std::pair<int64_t, Eigen::Isometry3d>>& poses) override {
     return inner_->UpdateKeyframePoses(poses);
@@ -344,6 +347,45 @@ TEST_F(StorageWriterTest, ObjectsSurviveTheRetryAfterAMergedFailure) {
   ASSERT_EQ(found->size(), 3u);
   EXPECT_EQ((*found)[0].position.x(), 2);
   EXPECT_EQ(reader_->FindObjectInstances(other_map, "")->size(), 1u);
+}
+
+TEST_F(StorageWriterTest, MapPointsSurviveTheRetryAfterAMergedFailure) {
+  const int64_t other_map = reader_->GetOrCreateMap("other")->id;
+  auto points = [&](int64_t first_id, int n) {
+    std::vector<MapPointRecord> list(static_cast<size_t>(n));
+    for (MapPointRecord& p : list) {
+      p.point_id = first_id++;
+      p.session_id = session_.id;
+      p.observations = {{session_.id, 0, 1}};
+    }
+    return list;
+  };
+  StartWriter();
+  Stall();
+  Outcomes outcomes;
+  WriteBatch first;
+  first.keyframes = {Keyframe(session_.id, 0)};
+  first.map_points.emplace_back(session_.map_id, points(1, 2));
+  first.map_points.emplace_back(other_map, points(1, 1));  // observes another map's keyframe
+  ASSERT_OK(writer_->Submit(std::move(first), outcomes.For(0)));
+  ASSERT_OK(writer_->Submit(Frames(0, 1, /*session_id=*/99999), outcomes.For(1)));
+  WriteBatch third;
+  third.map_points.emplace_back(session_.map_id, points(10, 3));  // replaces the first's list
+  ASSERT_OK(writer_->Submit(std::move(third), outcomes.For(2)));
+  Release();
+  outcomes.WaitFor(3);
+  ASSERT_OK(writer_->Stop());
+  ASSERT_EQ(outcomes.size(), 3u);
+  EXPECT_OK(outcomes.calls[0].second);
+  EXPECT_EQ(outcomes.calls[1].second.code(), StatusCode::kNotFound);
+  EXPECT_OK(outcomes.calls[2].second);
+  auto found = reader_->ListMapPoints(session_.map_id);
+  ASSERT_OK(found.status());
+  ASSERT_EQ(found->size(), 3u);
+  EXPECT_EQ((*found)[0].point_id, 10);
+  EXPECT_EQ(*reader_->connection().QueryInt64("SELECT COUNT(*) FROM map_points WHERE map_id = " +
+                                              std::to_string(other_map)),
+            1);
 }
 
 TEST_F(StorageWriterTest, StopDrainsEverythingAndCheckpoints) {
