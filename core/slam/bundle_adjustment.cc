@@ -8,51 +8,11 @@
 #include <unordered_map>
 
 #include "core/slam/internal/ceres_support.h"
+#include "core/slam/internal/observation_cost.h"
 #include "core/slam/internal/relative_pose_error.h"
 
 namespace semmap {
 namespace {
-
-// Whitened residual of one observation over (t_world_camera, q_world_camera, point_world):
-// reprojection (2) and, with depth, inverse depth (3rd). Quaternions in Eigen's (x, y, z, w)
-// order, kept unit by EigenQuaternionManifold.
-template <bool kWithDepth>
-class ObservationResidual {
- public:
-  ObservationResidual(const CameraCalibration& camera, const BundleAdjustmentObservation& o,
-                      double inverse_depth_sigma)
-      : fx_(camera.fx),
-        fy_(camera.fy),
-        cx_(camera.cx),
-        cy_(camera.cy),
-        u_(o.pixel.x()),
-        v_(o.pixel.y()),
-        inverse_pixel_sigma_(1 / o.pixel_sigma),
-        inverse_depth_(o.inverse_depth),
-        inverse_inverse_depth_sigma_(1 / inverse_depth_sigma) {}
-
-  template <typename T>
-  bool operator()(const T* t_wc_ptr, const T* q_wc_ptr, const T* x_w_ptr, T* r) const {
-    using Vec3 = Eigen::Matrix<T, 3, 1>;
-    const Eigen::Map<const Vec3> t_wc(t_wc_ptr), x_w(x_w_ptr);
-    const Eigen::Map<const Eigen::Quaternion<T>> q_wc(q_wc_ptr);
-    const Vec3 p_c = q_wc.conjugate() * (x_w - t_wc);
-    // A step that puts the point behind the camera is infeasible: Ceres rejects it and
-    // shrinks the trust region (starting points are checked to be in front).
-    if (p_c.z() <= T(1e-6)) return false;
-    const T inverse_z = T(1) / p_c.z();
-    r[0] = (T(fx_) * p_c.x() * inverse_z + T(cx_) - T(u_)) * T(inverse_pixel_sigma_);
-    r[1] = (T(fy_) * p_c.y() * inverse_z + T(cy_) - T(v_)) * T(inverse_pixel_sigma_);
-    if constexpr (kWithDepth) {
-      r[2] = (inverse_z - T(inverse_depth_)) * T(inverse_inverse_depth_sigma_);
-    }
-    return true;
-  }
-
- private:
-  double fx_, fy_, cx_, cy_, u_, v_, inverse_pixel_sigma_, inverse_depth_,
-      inverse_inverse_depth_sigma_;
-};
 
 struct PoseState {
   double t[3];
@@ -97,6 +57,9 @@ Status BundleAdjustmentOptions::Validate() const {
     return InvalidArgumentError("bundle adjustment max_solve_seconds must be >= 0");
   }
   if (num_threads < 1) return InvalidArgumentError("bundle adjustment num_threads must be >= 1");
+  if (dense_schur_max_keyframes < 0) {
+    return InvalidArgumentError("bundle adjustment dense_schur_max_keyframes must be >= 0");
+  }
   if (!std::isfinite(pose_constraint_loss_scale) || pose_constraint_loss_scale <= 0) {
     return InvalidArgumentError("bundle adjustment pose_constraint_loss_scale must be positive");
   }
@@ -270,13 +233,22 @@ StatusOr<BundleAdjustmentResult> BundleAdjust(
       const BundleAdjustmentObservation& o = observations[i];
       ceres::CostFunction* cost = nullptr;
       ceres::LossFunction* loss = nullptr;
+      const CameraCalibration& c = keyframes[k].camera;
+      slam_internal::ObservationModel model;
+      model.fx = c.fx;
+      model.fy = c.fy;
+      model.cx = c.cx;
+      model.cy = c.cy;
+      model.u = o.pixel.x();
+      model.v = o.pixel.y();
+      model.inverse_pixel_sigma = 1 / o.pixel_sigma;
+      model.inverse_depth = o.inverse_depth;
+      model.inverse_inverse_depth_sigma = 1 / options.inverse_depth_sigma;
       if (UsesDepth(o, options)) {
-        cost = new ceres::AutoDiffCostFunction<ObservationResidual<true>, 3, 3, 4, 3>(
-            new ObservationResidual<true>(keyframes[k].camera, o, options.inverse_depth_sigma));
+        cost = new slam_internal::ObservationCost<3>(model);
         loss = robust ? &loss_3dof : nullptr;
       } else {
-        cost = new ceres::AutoDiffCostFunction<ObservationResidual<false>, 2, 3, 4, 3>(
-            new ObservationResidual<false>(keyframes[k].camera, o, options.inverse_depth_sigma));
+        cost = new slam_internal::ObservationCost<2>(model);
         loss = robust ? &loss_2dof : nullptr;
       }
       add_pose(k);
@@ -307,7 +279,8 @@ StatusOr<BundleAdjustmentResult> BundleAdjust(
     solver_options.minimizer_type = ceres::TRUST_REGION;
     solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
     solver_options.sparse_linear_algebra_library_type = sparse_library;
-    solver_options.linear_solver_type = sparse ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
+    const bool small = static_cast<int>(keyframes.size()) <= options.dense_schur_max_keyframes;
+    solver_options.linear_solver_type = sparse && !small ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
     solver_options.linear_solver_ordering = ordering;
     solver_options.max_num_iterations = iterations;
     if (options.max_solve_seconds > 0) {

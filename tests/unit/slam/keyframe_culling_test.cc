@@ -39,6 +39,7 @@ struct CullingScene {
 
 std::vector<int64_t> PointIds(int first, int count) {
   std::vector<int64_t> ids;
+  ids.reserve(static_cast<size_t>(count));
   for (int i = 0; i < count; ++i) ids.push_back(first + i);
   return ids;
 }
