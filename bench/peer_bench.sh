@@ -10,7 +10,7 @@
 #     --runs N      runs per system and sequence (default 3)
 #     --only NAMES  comma-separated subset of: teddy, redkitchen, icl
 #     --out DIR     where every run's files and the report go (default: a new temp dir, kept)
-#     --semmapd-args A  extra semmapd flags, one string (e.g. "--final-ba on")
+#     --semmapd-args A  extra semmapd flags, one string (e.g. "--final-ba off")
 #
 # Sequences: teddy (../shared/data), 7-Scenes redkitchen and ICL-NUIM kt2 ($SEMMAP_EXTRA_DATA,
 # default ~/.cache/semmap/data; rebuild with ../shared/data/extra/README.md); each is skipped

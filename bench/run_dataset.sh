@@ -8,7 +8,7 @@
 #     --poses GT  stream in KNOWN_POSES mode with these poses (e.g. groundtruth.txt)
 #     --gt GT     ground truth to evaluate against (default: DIR/groundtruth.txt if present)
 #     --out DIR   where report.json, the estimate and the plots go (default: a temp dir)
-#     --semmapd-args A  extra semmapd flags, one string (e.g. "--final-ba on")
+#     --semmapd-args A  extra semmapd flags, one string (e.g. "--final-ba off")
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build/release}

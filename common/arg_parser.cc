@@ -84,6 +84,15 @@ StatusOr<double> ArgParser::GetDouble(const std::string& name, double fallback) 
   return v;
 }
 
+StatusOr<bool> ArgParser::GetOnOff(const std::string& name, bool fallback) const {
+  if (!Has(name)) return fallback;
+  const std::string text = Get(name);
+  if (text != "on" && text != "off") {
+    return InvalidArgumentError("--" + name + " must be on or off, got '" + text + "'");
+  }
+  return text == "on";
+}
+
 StatusOr<long long> ArgParser::GetInt(const std::string& name, long long fallback) const {
   if (!Has(name)) return fallback;
   const std::string text = Get(name);

@@ -24,6 +24,8 @@ class ArgParser {
   std::string Get(const std::string& name, const std::string& fallback = "") const;
   StatusOr<double> GetDouble(const std::string& name, double fallback) const;
   StatusOr<long long> GetInt(const std::string& name, long long fallback) const;
+  // A flag whose value is "on" or "off".
+  StatusOr<bool> GetOnOff(const std::string& name, bool fallback) const;
   // All values of a repeatable flag.
   std::vector<std::string> GetAll(const std::string& name) const;
   const std::vector<std::string>& positional() const { return positional_; }

@@ -84,22 +84,11 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
       mono_vo == "net" ? semmap::MonoVoMethod::kNet : semmap::MonoVoMethod::kHybrid;
   SEMMAP_ASSIGN_OR_RETURN(options->ingest.slam.verifier.max_xi,
                           args.GetDouble("loop-max-xi", options->ingest.slam.verifier.max_xi));
-  const std::string local_ba = args.Get("local-ba", "on");
-  if (local_ba != "on" && local_ba != "off") {
-    return semmap::InvalidArgumentError("--local-ba must be on or off");
-  }
-  options->ingest.slam.local_ba.enabled = local_ba == "on";
-  const std::string final_ba = args.Get("final-ba", "off");
-  if (final_ba != "on" && final_ba != "off") {
-    return semmap::InvalidArgumentError("--final-ba must be on or off");
-  }
-  options->ingest.slam.local_ba.final_ba = final_ba == "on";
-  const std::string layers = args.Get("map-layers", "on");
-  if (layers != "on" && layers != "off") {
-    return semmap::InvalidArgumentError("--map-layers must be on or off");
-  }
+  semmap::LocalBundleAdjustmentOptions& ba = options->ingest.slam.local_ba;
+  SEMMAP_ASSIGN_OR_RETURN(ba.enabled, args.GetOnOff("local-ba", ba.enabled));
+  SEMMAP_ASSIGN_OR_RETURN(ba.final_ba, args.GetOnOff("final-ba", ba.final_ba));
   semmap::MapLayerOptions& map = options->ingest.layers;
-  map.enabled = layers == "on";
+  SEMMAP_ASSIGN_OR_RETURN(map.enabled, args.GetOnOff("map-layers", map.enabled));
   SEMMAP_ASSIGN_OR_RETURN(map.occupancy.resolution_m,
                           args.GetDouble("map-resolution", map.occupancy.resolution_m));
   SEMMAP_ASSIGN_OR_RETURN(map.occupancy.max_range_m,
@@ -108,11 +97,8 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
                           args.GetDouble("cloud-voxel", map.cloud.leaf_size_m));
   SEMMAP_ASSIGN_OR_RETURN(map.occupancy.keyframe_voxel_m,
                           args.GetDouble("map-keyframe-voxel", map.occupancy.keyframe_voxel_m));
-  const std::string objects = args.Get("objects", "on");
-  if (objects != "on" && objects != "off") {
-    return semmap::InvalidArgumentError("--objects must be on or off");
-  }
-  options->ingest.objects.enabled = objects == "on";
+  SEMMAP_ASSIGN_OR_RETURN(options->ingest.objects.enabled,
+                          args.GetOnOff("objects", options->ingest.objects.enabled));
   SEMMAP_ASSIGN_OR_RETURN(double object_xi,
                           args.GetDouble("object-max-xi", options->recognition.max_xi));
   if (object_xi == 0) {
@@ -188,7 +174,7 @@ int main(int argc, char** argv) {
                "points, and track against the refined points (default on)");
   args.AddFlag("final-ba", "on|off",
                "when an RGBD session ends, bundle-adjust every keyframe and map point of its map "
-               "(needs --local-ba on; default off)");
+               "(needs --local-ba on; default on)");
   args.AddFlag("map-layers", "on|off",
                "build the 3D layers (OctoMap occupancy, coloured cloud) from keyframes with depth "
                "(default on)");

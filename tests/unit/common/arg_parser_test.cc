@@ -19,6 +19,23 @@ TEST(ArgParserTest, FlagsSwitchesAndPositionals) {
   EXPECT_EQ(p.positional()[1], "DIR");
 }
 
+TEST(ArgParserTest, OnOffFlags) {
+  ArgParser p;
+  p.AddFlag("final-ba", "on|off", "");
+  p.AddFlag("objects", "on|off", "");
+  p.AddFlag("layers", "on|off", "");
+  const char* argv[] = {"semmapd", "--final-ba", "off", "--objects=on", "--layers", "yes"};
+  ASSERT_TRUE(p.Parse(6, argv).ok());
+  EXPECT_FALSE(*p.GetOnOff("final-ba", true));
+  EXPECT_TRUE(*p.GetOnOff("objects", false));
+  const StatusOr<bool> bad = p.GetOnOff("layers", true);
+  ASSERT_EQ(bad.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(bad.status().message(), "--layers must be on or off, got 'yes'");
+  ArgParser unset;
+  unset.AddFlag("final-ba", "on|off", "");
+  EXPECT_TRUE(*unset.GetOnOff("final-ba", true));
+}
+
 TEST(ArgParserTest, ShortFlags) {
   ArgParser p;
   p.AddFlag("o", "FILE", "output");
