@@ -170,6 +170,18 @@ class SlamBackendTest : public ::testing::Test {
     return reported;
   }
 
+  // Makes `name` the fixture's session (a new one of the same map and camera).
+  void StartNewSession(const std::string& name) {
+    ASSERT_TRUE(writer_
+                    ->RunSync([&](MapStore& s) -> Status {
+                      SessionInfo info = session_;
+                      info.name = name;
+                      SEMMAP_ASSIGN_OR_RETURN(session_, s.CreateSession(info));
+                      return OkStatus();
+                    })
+                    .ok());
+  }
+
   std::unique_ptr<SlamBackend> Start(SlamBackendOptions options = {},
                                      std::shared_ptr<const BowVocabulary> vocabulary = nullptr,
                                      const MapSnapshot* snapshot = nullptr,
@@ -279,14 +291,7 @@ TEST_F(SlamBackendTest, SessionAfterRestartJoinsTheStoredMap) {
   EXPECT_EQ(snapshot->keyframes.size(), lap.size());
   const int64_t first_session = session_.id;
   // The second session walks a third of the lap again, starting in a frame of its own.
-  ASSERT_TRUE(writer_
-                  ->RunSync([&](MapStore& s) -> Status {
-                    SessionInfo info = session_;
-                    info.name = "again";
-                    SEMMAP_ASSIGN_OR_RETURN(session_, s.CreateSession(info));
-                    return OkStatus();
-                  })
-                  .ok());
+  StartNewSession("again");
   corrections_ = 0;
   std::unique_ptr<SlamBackend> second = Start({}, words, &*snapshot);
   EXPECT_EQ(second->stats().restored_keyframes, lap.size());
@@ -345,14 +350,7 @@ TEST_F(SlamBackendTest, MapPointsPersistAndReachALaterSessionsTracker) {
                     return snapshot.status();
                   })
                   .ok());
-  ASSERT_TRUE(writer_
-                  ->RunSync([&](MapStore& s) -> Status {
-                    SessionInfo info = session_;
-                    info.name = "again";
-                    SEMMAP_ASSIGN_OR_RETURN(session_, s.CreateSession(info));
-                    return OkStatus();
-                  })
-                  .ok());
+  StartNewSession("again");
   std::unique_ptr<SlamBackend> second = Start(UnboundedSolves(), words, &*snapshot);
   EXPECT_EQ(second->stats().restored_map_points, first_points);
   EXPECT_EQ(second->stats().map_points, first_points);
@@ -383,14 +381,7 @@ TEST_F(SlamBackendTest, RestoresFromTheStoreOnItsOwnThreadLeavingOutLiveSessions
     ASSERT_TRUE(first->Drain().ok());
   }
   const int64_t first_session = session_.id;
-  ASSERT_TRUE(writer_
-                  ->RunSync([&](MapStore& s) -> Status {
-                    SessionInfo info = session_;
-                    info.name = "live";
-                    SEMMAP_ASSIGN_OR_RETURN(session_, s.CreateSession(info));
-                    return OkStatus();
-                  })
-                  .ok());
+  StartNewSession("live");
   // The live session's first keyframe is committed before the restore reads.
   Stream(*Start(), {lap.front()}, std::nullopt, /*drift=*/false);
   ASSERT_TRUE(writer_->RunSync([](MapStore&) { return OkStatus(); }).ok());  // after the above
@@ -514,14 +505,7 @@ TEST_F(SlamBackendTest, FinalBundleAdjustmentRunsWhenTheSessionDrains) {
 TEST_F(SlamBackendTest, CullingDropsRedundantKeyframesAndKeepsTheTrajectory) {
   const std::vector<Keyframe> kfs = RenderKeyframes(61, /*every=*/2);
   const auto run = [&](bool cull, const std::string& session_name) {
-    EXPECT_TRUE(writer_
-                    ->RunSync([&](MapStore& s) -> Status {
-                      SessionInfo info = session_;
-                      info.name = session_name;
-                      SEMMAP_ASSIGN_OR_RETURN(session_, s.CreateSession(info));
-                      return OkStatus();
-                    })
-                    .ok());
+    StartNewSession(session_name);
     SlamBackendOptions options = UnboundedSolves();
     options.culling.enabled = cull;
     options.culling.redundant_fraction = 0.6;
