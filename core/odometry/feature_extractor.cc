@@ -4,7 +4,10 @@
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <string>
+
+#include "core/odometry/internal/orb_keypoints.h"
 
 namespace semmap {
 
@@ -110,19 +113,14 @@ StatusOr<FeatureExtractor> FeatureExtractor::Create(const FeatureExtractorOption
   SEMMAP_RETURN_IF_ERROR(ValidateCalibration(camera));
   const int candidates = static_cast<int>(std::ceil(options.max_features * options.oversample));
   try {
-    cv::Ptr<cv::Feature2D> detector, weak_detector;
-    const auto orb = [&](int threshold) {
-      return cv::ORB::create(candidates, static_cast<float>(options.orb_scale_factor),
-                             options.orb_levels, /*edgeThreshold=*/19, /*firstLevel=*/0,
-                             /*WTA_K=*/2, cv::ORB::HARRIS_SCORE, /*patchSize=*/31, threshold);
-    };
+    cv::Ptr<cv::Feature2D> detector;
     switch (options.type) {
       case FeatureType::kOrb:
-        detector = orb(options.orb_fast_threshold);
-        if (options.orb_min_fast_threshold > 0 &&
-            options.orb_min_fast_threshold < options.orb_fast_threshold) {
-          weak_detector = orb(options.orb_min_fast_threshold);
-        }
+        // Describes the keypoints internal::DetectOrbKeypoints finds (its detection unused).
+        detector = cv::ORB::create(candidates, static_cast<float>(options.orb_scale_factor),
+                                   options.orb_levels, internal::kOrbEdge, /*firstLevel=*/0,
+                                   /*WTA_K=*/2, cv::ORB::HARRIS_SCORE, internal::kOrbPatchSize,
+                                   options.orb_fast_threshold);
         break;
       case FeatureType::kSift:
         detector = cv::SIFT::create(candidates);
@@ -132,10 +130,51 @@ StatusOr<FeatureExtractor> FeatureExtractor::Create(const FeatureExtractorOption
         break;
     }
     if (detector.empty()) return InternalError("could not create the feature detector");
-    return FeatureExtractor(options, camera, std::move(detector), std::move(weak_detector));
+    return FeatureExtractor(options, camera, std::move(detector), candidates);
   } catch (const cv::Exception& e) {
     return InternalError(std::string("creating the feature detector: ") + e.what());
   }
+}
+
+std::vector<cv::KeyPoint> FeatureExtractor::DetectOther(const cv::Mat& grey) const {
+  std::vector<cv::KeyPoint> candidates;
+  detector_->detect(grey, candidates);
+  return candidates;
+}
+
+std::vector<cv::KeyPoint> FeatureExtractor::DetectOrb(const internal::OrbPyramid& pyramid) const {
+  const cv::Mat& grey = pyramid.levels[0];
+  const std::vector<int> budgets =
+      internal::OrbLevelBudgets(candidates_, options_.orb_levels, options_.orb_scale_factor);
+  std::vector<cv::KeyPoint> candidates =
+      internal::DetectOrbKeypoints(pyramid, options_.orb_fast_threshold, budgets, {});
+  const int min_threshold = options_.orb_min_fast_threshold;
+  if (min_threshold <= 0 || min_threshold >= options_.orb_fast_threshold) return candidates;
+  // Sparse cells (fewer candidates than their share of the oversampled budget: plain walls,
+  // dim or blurred patches) get the weaker corners a lower threshold finds there, and only
+  // there: searching the whole image again would double detection's cost.
+  const int cols = options_.grid_cols, rows = options_.grid_rows;
+  const int share = std::max(1, options_.max_features / (cols * rows));
+  std::vector<int> count(static_cast<size_t>(cols * rows), 0);
+  for (const cv::KeyPoint& k : candidates) {
+    ++count[static_cast<size_t>(CellOf(k.pt, grey.cols, grey.rows, cols, rows))];
+  }
+  std::vector<cv::Rect2f> sparse;
+  const float cell_w = static_cast<float>(grey.cols) / static_cast<float>(cols);
+  const float cell_h = static_cast<float>(grey.rows) / static_cast<float>(rows);
+  for (int cy = 0, cell = 0; cy < rows; ++cy) {
+    for (int cx = 0; cx < cols; ++cx, ++cell) {
+      if (count[static_cast<size_t>(cell)] >= share) continue;
+      sparse.emplace_back(static_cast<float>(cx) * cell_w, static_cast<float>(cy) * cell_h, cell_w,
+                          cell_h);
+    }
+  }
+  if (sparse.empty()) return candidates;
+  std::vector<cv::KeyPoint> weak =
+      internal::DetectOrbKeypoints(pyramid, min_threshold, budgets, sparse);
+  internal::KeepWithinLevelBudgets(candidates, budgets, &weak);
+  FillSparseCells(&candidates, std::move(weak), grey.cols, grey.rows, cols, rows, share);
+  return candidates;
 }
 
 StatusOr<FrameFeatures> FeatureExtractor::Extract(const cv::Mat& image, const cv::Mat& depth_raw,
@@ -167,26 +206,16 @@ StatusOr<FrameFeatures> FeatureExtractor::Extract(const cv::Mat& image, const cv
       grey = image;  // shares the pixels; nothing below writes to them
     }
     std::vector<cv::KeyPoint> candidates;
-    detector_->detect(grey, candidates);
-    if (weak_detector_) {
-      // Sparse cells (fewer candidates than their share of the oversampled budget) get the
-      // weaker corners a second, lower-threshold detection finds there.
-      const int cells = options_.grid_cols * options_.grid_rows;
-      const int share = std::max(1, options_.max_features / cells);
-      std::vector<int> count(static_cast<size_t>(cells), 0);
-      for (const cv::KeyPoint& k : candidates) {
-        ++count[static_cast<size_t>(
-            CellOf(k.pt, grey.cols, grey.rows, options_.grid_cols, options_.grid_rows))];
-      }
-      if (std::any_of(count.begin(), count.end(), [&](int c) { return c < share; })) {
-        std::vector<cv::KeyPoint> weak;
-        weak_detector_->detect(grey, weak);
-        FillSparseCells(&candidates, std::move(weak), grey.cols, grey.rows, options_.grid_cols,
-                        options_.grid_rows, share);
-      }
+    std::optional<internal::OrbPyramid> pyramid;
+    if (options_.type == FeatureType::kOrb) {
+      pyramid = internal::BuildOrbPyramid(grey, options_.orb_levels, options_.orb_scale_factor);
+      candidates = DetectOrb(*pyramid);
+    } else {
+      candidates = DetectOther(grey);
     }
     out.keypoints = BucketKeypoints(std::move(candidates), grey.cols, grey.rows, options_.grid_cols,
                                     options_.grid_rows, options_.max_features);
+    if (pyramid) internal::OrientOrbKeypoints(*pyramid, &out.keypoints);  // the kept ones only
     // compute() may drop keypoints it cannot describe (too near the border); the rest stay
     // aligned with the descriptor rows.
     detector_->compute(grey, out.keypoints, out.descriptors);

@@ -12,6 +12,9 @@
 #include "core/sensor/frame_features.h"
 
 namespace semmap {
+namespace internal {
+struct OrbPyramid;
+}  // namespace internal
 
 enum class FeatureType { kOrb, kSift, kAkaze };
 
@@ -57,18 +60,23 @@ class FeatureExtractor {
 
  private:
   FeatureExtractor(FeatureExtractorOptions options, CameraCalibration camera,
-                   cv::Ptr<cv::Feature2D> detector, cv::Ptr<cv::Feature2D> weak_detector)
+                   cv::Ptr<cv::Feature2D> detector, int candidates)
       : options_(options),
         camera_(camera),
         detector_(std::move(detector)),
-        weak_detector_(std::move(weak_detector)) {}
+        candidates_(candidates) {}
+
+  // Candidates before bucketing: ORB's own detection (internal/orb_keypoints.h) with the weak
+  // pass in sparse cells; SIFT and AKAZE through OpenCV.
+  std::vector<cv::KeyPoint> DetectOrb(const internal::OrbPyramid& pyramid) const;
+  std::vector<cv::KeyPoint> DetectOther(const cv::Mat& grey) const;
 
   FeatureExtractorOptions options_;
   CameraCalibration camera_;
   // OpenCV detectors keep no state between calls that affects results, but they are not
-  // documented as thread-safe: one extractor per tracking thread.
+  // documented as thread-safe: one extractor per tracking thread. For ORB it only describes.
   cv::Ptr<cv::Feature2D> detector_;
-  cv::Ptr<cv::Feature2D> weak_detector_;  // orb_min_fast_threshold; null when off
+  int candidates_;  // max_features * oversample
 };
 
 // Adds to `keypoints` the `weak` keypoints that lie in grid cells holding fewer than `share`

@@ -1,0 +1,63 @@
+// ORB keypoint detection done once per frame instead of through cv::ORB::detect: one image
+// pyramid, FAST per level, the weak-threshold pass only inside the grid cells that need it.
+// The keypoints are what cv::ORB::detect gives (level-0 coordinates, octave, patch size, Harris
+// response, intensity-centroid angle), so cv::ORB::compute describes them unchanged and the
+// trained place-recognition vocabulary stays valid.
+//
+// Why not cv::ORB::detect: it runs FAST over every level of the whole image for each threshold,
+// so the weak pass (faint or blurred cells) cost a second full detection, the largest part of
+// tracking's time.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+#include <vector>
+
+namespace semmap::internal {
+
+// Keypoints closer than this to a level's border are not detected (cv::ORB's edgeThreshold as
+// the extractor has always set it): the descriptor's rotated patch must fit.
+inline constexpr int kOrbEdge = 19;
+inline constexpr int kOrbPatchSize = 31;
+
+struct OrbPyramid {
+  std::vector<cv::Mat> levels;  // levels[0] is the image itself (shared, not copied)
+  std::vector<double> scales;   // scale_factor^level: a level pixel is this many level-0 ones
+};
+
+// `grey`: CV_8UC1. Levels smaller than the detection border are left out.
+OrbPyramid BuildOrbPyramid(const cv::Mat& grey, int levels, double scale_factor);
+
+// cv::ORB's split of a total over the levels: a geometric series with ratio 1 / scale_factor,
+// the rest to the last level.
+std::vector<int> OrbLevelBudgets(int total, int levels, double scale_factor);
+
+// FAST corners at `threshold` (with non-maximum suppression) in every level, inside `regions`
+// (level-0 rectangles, half-open; the whole image when empty; a corner belongs to the region
+// holding its level-0 position, so adjacent regions never share one). Per level, the 2 * budget
+// strongest by FAST score are scored by Harris and the `budget` best kept, as cv::ORB does. Angles
+// are left at -1: orient only the keypoints kept (OrientOrbKeypoints), half the cost.
+std::vector<cv::KeyPoint> DetectOrbKeypoints(const OrbPyramid& pyramid, int threshold,
+                                             const std::vector<int>& level_budgets,
+                                             const std::vector<cv::Rect2f>& regions);
+
+// Harris corner response (k = 0.04) over a 7 x 7 block of 3 x 3 Sobel gradients at `p`, scaled
+// as cv::ORB scales it; `p` at least 4 pixels inside `image`.
+float HarrisResponse(const cv::Mat& image, cv::Point p);
+
+// Orientation in degrees [0, 360) of the intensity centroid of the disc of `radius` around
+// `p` (Rublee et al.'s ORB), `p` at least `radius` pixels inside `image`.
+float IntensityCentroidAngle(const cv::Mat& image, cv::Point p, int radius);
+
+// Sets each keypoint's angle (cv::ORB's orientation) from its level of `pyramid`; keypoints of
+// DetectOrbKeypoints on that pyramid.
+void OrientOrbKeypoints(const OrbPyramid& pyramid, std::vector<cv::KeyPoint>* keypoints);
+
+// Of `weak` (a second detection at a lower threshold in some regions), keeps those that rank
+// within their level's budget among `strong` and `weak` together by response: the ones a
+// whole-image detection at the lower threshold would have kept there, so a weak pass in a few
+// cells adds what the two full detections it replaces added, no more.
+void KeepWithinLevelBudgets(const std::vector<cv::KeyPoint>& strong,
+                            const std::vector<int>& level_budgets, std::vector<cv::KeyPoint>* weak);
+
+}  // namespace semmap::internal
