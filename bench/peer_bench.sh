@@ -8,13 +8,17 @@
 #
 #   bench/peer_bench.sh [--runs N] [--only NAMES] [--out DIR] [--semmapd-args A]
 #     --runs N      runs per system and sequence (default 3)
-#     --only NAMES  comma-separated subset of: teddy, redkitchen, icl
+#     --only NAMES  comma-separated subset of: teddy, redkitchen, icl, synth-lap, synth-fast
 #     --out DIR     where every run's files and the report go (default: a new temp dir, kept)
 #     --semmapd-args A  extra semmapd flags, one string (e.g. "--final-ba off")
 #
 # Sequences: teddy (../shared/data), 7-Scenes redkitchen and ICL-NUIM kt2 ($SEMMAP_EXTRA_DATA,
 # default ~/.cache/semmap/data; rebuild with ../shared/data/extra/README.md); each is skipped
-# with a message when absent. ORB-SLAM2 comes from ../shared/peers/orbslam2 (build.sh, README):
+# with a message when absent. Two synthetic ones rendered by semmap-synth into OUT/data (seed 2,
+# motion blur, Kinect-like depth noise, colour noise; about a minute each, kept for a rerun with
+# the same --out): synth-lap, one 300-frame lap of the room at 30 Hz that closes a loop;
+# synth-fast, 300 frames of fast hand-held motion (about 2 m/s and 150 deg/s) at 60 Hz.
+# ORB-SLAM2 comes from ../shared/peers/orbslam2 (build.sh, README):
 # its column is skipped with a message when it is not built ($ORBSLAM2_ROOT, default
 # ~/.cache/semmap/peers/orbslam2). Its settings file is generated from the sequence's own
 # camera.yaml (intrinsics, depth scale) with ORB-SLAM2's TUM defaults for everything else.
@@ -35,7 +39,7 @@ export ORBSLAM2_ROOT
 EXTRA=${SEMMAP_EXTRA_DATA:-$HOME/.cache/semmap/data}
 SHARED_DATA="$ROOT/../shared/data"
 
-usage() { sed -n '2,28p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-2}"; }
+usage() { sed -n '2,30p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-2}"; }
 RUNS=3; ONLY=""; OUT=""; SEMMAPD_ARGS=""
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -63,7 +67,24 @@ fi
 #        name        folder
 SEQS=("teddy       $SHARED_DATA/tum_fr3_teddy_200"
       "redkitchen  $EXTRA/7scenes_redkitchen_tsdfpy"
-      "icl         $EXTRA/icl_livingroom_kt2_cmu16833")
+      "icl         $EXTRA/icl_livingroom_kt2_cmu16833"
+      "synth-lap   $OUT/data/synth-lap"
+      "synth-fast  $OUT/data/synth-fast")
+SYNTH="$BUILD_DIR/tools/semmap-synth"
+SYNTH_NOISE=(--seed 2 --frames 300 --blur --depth-noise --colour-noise --quiet --no-templates)
+declare -A SYNTH_ARGS=([synth-lap]="--trajectory circle --rate 30"
+                       [synth-fast]="--trajectory fast --rate 60")
+
+# render_synth NAME DIR: renders a synthetic sequence unless DIR already holds it.
+render_synth() {
+  [ -f "$2/groundtruth.txt" ] && return 0
+  [ -x "$SYNTH" ] || { echo "  skipped: $SYNTH missing (make build)"; return 1; }
+  echo "  rendering $1 (semmap-synth ${SYNTH_ARGS[$1]} ${SYNTH_NOISE[*]})"
+  rm -rf "$2"; mkdir -p "$(dirname "$2")"
+  # shellcheck disable=SC2086  # the arguments are words
+  "$SYNTH" "$2" ${SYNTH_ARGS[$1]} "${SYNTH_NOISE[@]}" >"$2.log" 2>&1 ||
+    { echo "  skipped: semmap-synth failed: $2.log"; tail -3 "$2.log"; return 1; }
+}
 
 # orb_settings CAMERA_YAML: an ORB-SLAM2 settings file for that camera (semmap's camera.yaml
 # keys: fx fy cx cy width height depth_scale distortion), ORB-SLAM2's TUM defaults otherwise.
@@ -138,6 +159,7 @@ for entry in "${SEQS[@]}"; do
   read -r name dir <<<"$entry"
   [ -z "$ONLY" ] || [[ $ONLY == *",$name,"* ]] || continue
   printf '\n== %s (%s)\n' "$name" "$dir"
+  if [[ $name == synth-* ]]; then render_synth "$name" "$dir" || continue; fi
   if [ ! -f "$dir/rgb.txt" ] || [ ! -f "$dir/groundtruth.txt" ]; then
     echo "  skipped: $dir absent (see ../shared/data/README.md and ../shared/data/extra/README.md)"
     continue

@@ -6,15 +6,21 @@
 //   BM_TrackFrame   RgbdTracker::Track on consecutive frames (extract + local-map matching +
 //                   pose + keyframe/map bookkeeping), with extract/match/pose p50 from its own
 //                   timings and the mean local-map size
+//   BM_TrackTeddy   the same on the real TUM fr3/teddy frames (../shared/data; skipped with a
+//                   message when absent): tracking's cost on a real Kinect sequence, alone on
+//                   the machine (the server's figure also waits for the back end's threads)
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <memory>
+#include <opencv2/imgcodecs.hpp>
 #include <optional>
+#include <string>
 #include <vector>
 
+#include "client/datasets/dataset.h"
 #include "core/odometry/feature_extractor.h"
 #include "core/odometry/feature_matcher.h"
 #include "core/odometry/motion_estimator.h"
@@ -175,6 +181,62 @@ void BM_TrackFrame(benchmark::State& state) {
   state.counters["map_points"] = total.empty() ? 0 : map_points / static_cast<double>(total.size());
 }
 BENCHMARK(BM_TrackFrame)->Unit(benchmark::kMillisecond);
+
+void BM_TrackTeddy(benchmark::State& state) {
+  const std::string dir = std::string(SEMMAP_SHARED_DATA_DIR) + "/tum_fr3_teddy_200";
+  StatusOr<Dataset> dataset = OpenDataset(dir);
+  if (!dataset.ok() || dataset->depth_scale <= 0) {
+    state.SkipWithError(("no TUM fr3/teddy at " + dir + " (../shared/data/README.md)").c_str());
+    return;
+  }
+  struct Frame {
+    cv::Mat bgr, depth;
+    int64_t stamp_ns;
+  };
+  std::vector<Frame> frames;  // read once (not timed)
+  for (const DatasetFrame& f : dataset->frames) {
+    if (!f.depth_path) continue;
+    frames.push_back({cv::imread(f.colour_path, cv::IMREAD_COLOR),
+                      cv::imread(*f.depth_path, cv::IMREAD_ANYDEPTH), f.stamp_ns});
+    if (frames.back().bgr.empty() || frames.back().depth.type() != CV_16UC1) {
+      state.SkipWithError(("unreadable frame " + f.colour_path).c_str());
+      return;
+    }
+  }
+  RgbdTrackerOptions options;
+  options.camera = dataset->camera;
+  std::vector<double> total, extract, match, pose;
+  size_t i = 0;
+  int64_t lap_offset = 0;
+  StatusOr<RgbdTracker> tracker =
+      RgbdTracker::Create(options, std::make_unique<KeyframePolicy>(KeyframePolicyOptions{}));
+  if (!tracker.ok()) std::abort();
+  for (auto _ : state) {
+    if (i > 0 && i % frames.size() == 0) {  // a new tracker for each pass (not timed)
+      state.PauseTiming();
+      tracker =
+          RgbdTracker::Create(options, std::make_unique<KeyframePolicy>(KeyframePolicyOptions{}));
+      lap_offset += frames.back().stamp_ns;
+      state.ResumeTiming();
+    }
+    const Frame& f = frames[i++ % frames.size()];
+    DecodedDepth depth;
+    depth.raw = f.depth;
+    depth.depth_scale = dataset->depth_scale;
+    StatusOr<TrackingResult> r = tracker->Track(f.bgr, depth, lap_offset + f.stamp_ns);
+    if (!r.ok()) std::abort();
+    if (i % frames.size() == 1) continue;  // the first frame of a pass only extracts
+    total.push_back(r->timings.total_ms);
+    extract.push_back(r->timings.extract_ms);
+    match.push_back(r->timings.match_ms);
+    pose.push_back(r->timings.pose_ms);
+  }
+  state.counters["p50_ms"] = P50(total);
+  state.counters["extract_p50_ms"] = P50(extract);
+  state.counters["match_p50_ms"] = P50(match);
+  state.counters["pose_p50_ms"] = P50(pose);
+}
+BENCHMARK(BM_TrackTeddy)->Unit(benchmark::kMillisecond)->Iterations(200);
 
 }  // namespace
 }  // namespace semmap
