@@ -1,10 +1,12 @@
 #include "common/thread_priority.h"
 
+#include <pthread.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <string>
 
 namespace semmap {
 
@@ -15,6 +17,12 @@ bool LowerCurrentThreadPriority(int increment) {
   const int current = getpriority(PRIO_PROCESS, tid);
   if (current == -1 && errno != 0) return false;
   return setpriority(PRIO_PROCESS, tid, current + increment) == 0;
+}
+
+void NameCurrentThread(std::string_view name) {
+  constexpr size_t kMaxLength = 15;  // Linux's TASK_COMM_LEN less the terminator
+  const std::string cut(name.substr(0, kMaxLength));
+  pthread_setname_np(pthread_self(), cut.c_str());
 }
 
 }  // namespace semmap

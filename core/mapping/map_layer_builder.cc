@@ -55,6 +55,7 @@ StatusOr<std::unique_ptr<MapLayerBuilder>> MapLayerBuilder::Start(
   if (writer == nullptr) return InvalidArgumentError("map layers need a storage writer");
   SEMMAP_ASSIGN_OR_RETURN(OccupancyMap occupancy, OccupancyMap::Create(options.occupancy));
   stage.name = "map '" + map_name + "' layers";
+  stage.thread_name = "map-layers";
   stage.queue_capacity = options.queue_capacity;
   std::unique_ptr<MapLayerBuilder> builder(
       new MapLayerBuilder(map_id, std::move(map_name), options, writer, std::move(occupancy),

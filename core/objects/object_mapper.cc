@@ -32,6 +32,7 @@ StatusOr<std::unique_ptr<ObjectMapper>> ObjectMapper::Start(
     return InvalidArgumentError("the object mapper needs a catalog and a storage writer");
   }
   stage.name = "objects of map " + std::to_string(map_id);
+  stage.thread_name = "object-mapper";
   stage.queue_capacity = options.queue_capacity;
   std::unique_ptr<ObjectMapper> mapper(
       new ObjectMapper(map_id, options, catalog, writer, std::move(restore), std::move(stage)));

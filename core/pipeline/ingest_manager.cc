@@ -6,6 +6,7 @@
 #include "common/logging.h"
 #include "common/memory_trim.h"
 #include "common/thread_launcher.h"
+#include "common/thread_priority.h"
 
 namespace semmap {
 
@@ -37,7 +38,10 @@ StatusOr<std::shared_ptr<IngestSessionHandle>> IngestManager::Open(
   }
   // The server's own thread (options_.launch_thread is for the clients' threads).
   if (!reaper_.joinable()) {
-    StatusOr<std::thread> reaper = LaunchThread([this] { Reap(); });
+    StatusOr<std::thread> reaper = LaunchThread([this] {
+      NameCurrentThread("session-reaper");
+      Reap();
+    });
     if (!reaper.ok()) return reaper.status();
     reaper_ = std::move(reaper).value();
   }

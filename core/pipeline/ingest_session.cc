@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "common/thread_launcher.h"
+#include "common/thread_priority.h"
 #include "common/time_util.h"
 #include "core/sensor/image_decoding.h"
 
@@ -70,10 +71,16 @@ StatusOr<std::unique_ptr<IngestSession>> IngestSession::Start(std::shared_ptr<In
   const ThreadLauncher& launch =
       session->options_.launch_thread ? session->options_.launch_thread : LaunchThread;
   IngestSession* raw = session.get();
-  StatusOr<std::thread> decoder = launch([raw] { raw->RunDecoder(); });
+  StatusOr<std::thread> decoder = launch([raw] {
+    NameCurrentThread("ingest-decode");
+    raw->RunDecoder();
+  });
   if (decoder.ok()) {
     session->decoder_ = std::move(decoder).value();
-    StatusOr<std::thread> worker = launch([raw] { raw->Run(); });
+    StatusOr<std::thread> worker = launch([raw] {
+      NameCurrentThread("ingest-track");
+      raw->Run();
+    });
     if (worker.ok()) {
       session->worker_ = std::move(worker).value();
       return session;

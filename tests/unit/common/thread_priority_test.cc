@@ -1,0 +1,56 @@
+#include "common/thread_priority.h"
+
+#include <gtest/gtest.h>
+#include <pthread.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <string>
+#include <thread>
+
+namespace semmap {
+namespace {
+
+std::string CurrentThreadName() {
+  char name[64] = {};
+  if (pthread_getname_np(pthread_self(), name, sizeof(name)) != 0) return "?";
+  return name;
+}
+
+TEST(ThreadPriorityTest, NamesTheCallingThreadOnlyCuttingAt15Bytes) {
+  const std::string before = CurrentThreadName();
+  std::string inside, cut;
+  std::thread([&] {
+    NameCurrentThread("slam-backend");
+    inside = CurrentThreadName();
+    NameCurrentThread("a-name-longer-than-fifteen-bytes");
+    cut = CurrentThreadName();
+  }).join();
+  EXPECT_EQ(inside, "slam-backend");
+  EXPECT_EQ(cut, "a-name-longer-t");
+  EXPECT_EQ(CurrentThreadName(), before);
+}
+
+TEST(ThreadPriorityTest, LowersTheCallingThreadOnly) {
+  const auto nice_of_this_thread = [] {
+    errno = 0;
+    return getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+  };
+  const int before = nice_of_this_thread();
+  int inside_before = 0, inside_after = 0;
+  bool lowered = false;
+  std::thread([&] {
+    inside_before = nice_of_this_thread();
+    lowered = LowerCurrentThreadPriority(3);
+    inside_after = nice_of_this_thread();
+  }).join();
+  if (!lowered) GTEST_SKIP() << "this system refuses setpriority";
+  EXPECT_EQ(inside_after, std::min(inside_before + 3, 19));
+  EXPECT_EQ(nice_of_this_thread(), before);
+}
+
+}  // namespace
+}  // namespace semmap
