@@ -7,7 +7,8 @@
 #   bench/run_dataset.sh DIR [--poses GT] [--gt GT] [--out OUT_DIR] [--mono] [--semmapd-args A]
 #     --poses GT  stream in KNOWN_POSES mode with these poses (e.g. groundtruth.txt)
 #     --gt GT     ground truth to evaluate against (default: DIR/groundtruth.txt if present)
-#     --out DIR   where report.json, the estimate and the plots go (default: a temp dir)
+#     --out DIR   where report.json, the estimate, the plots and semmapd.log go (default: a
+#                 temp dir)
 #     --semmapd-args A  extra semmapd flags, one string (e.g. "--final-ba off")
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,7 +16,7 @@ BUILD_DIR=${BUILD_DIR:-build/release}
 SEMMAPD="$BUILD_DIR/server/semmapd"
 SEMMAP="$BUILD_DIR/client/cli/semmap"
 
-usage() { sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; exit 2; }
+usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 2; }
 [ $# -ge 1 ] || usage
 DATASET=$1; shift
 POSES=""; GT=""; OUT=""; MODE_ARGS=(); SERVER_ARGS=()
@@ -56,6 +57,7 @@ echo "$ingest" >"$OUT/ingest.json"
 peak_kb=$(awk '/VmHWM/ {print $2}' /proc/$pid/status)
 kill -TERM $pid; wait $pid || true
 db_bytes=$(stat -c %s "$data_dir/semmap.db")
+cp "$data_dir/semmapd.log" "$OUT/semmapd.log"
 
 keyframes=$(jq .keyframes <<<"$ingest")
 printf 'frames: %s stored of %s sent, keyframes: %s\n' "$(jq .frames_stored <<<"$ingest")" \
@@ -67,6 +69,8 @@ jq -r '.stages | to_entries[] | select(.value.count > 0) |
        "  \(.key)\t\(.value.p50_ms)\t\(.value.p95_ms)\t\(.value.max_ms)"' <<<"$ingest" |
   awk -F'\t' '{printf "%-20s %8.2f %8.2f %8.2f\n", $1, $2, $3, $4}'
 awk -v kb="$peak_kb" 'BEGIN { printf "server peak RSS: %.1f MiB\n", kb / 1024 }'
+# The SLAM back end's account of the session (keyframes culled, loops, BA, map points).
+grep -o 'map back end: .*' "$OUT/semmapd.log" | tail -1 || true
 awk -v b="$db_bytes" -v k="$keyframes" \
   'BEGIN { printf "database: %.2f MiB (%.0f bytes per keyframe)\n", b / 1048576, b / (k > 0 ? k : 1) }'
 

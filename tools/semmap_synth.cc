@@ -36,7 +36,8 @@ ArgParser MakeParser() {
       "trajectory", "KIND",
       "circle | figure8 | corridor | rotation | fast | tour (the named objects, each from 1 m) "
       "(default circle)");
-  p.AddFlag("frames", "N", "number of frames (default 300; loops make one lap over them)");
+  p.AddFlag("frames", "N", "number of frames (default 300; loops make --laps laps over them)");
+  p.AddFlag("laps", "N", "laps of a loop trajectory over the frames (default 1)");
   p.AddFlag("rate", "HZ", "frame rate, sets the stamps (default 30)");
   p.AddFlag("seed", "S", "scene textures, fast-motion path and noise (default 1)");
   p.AddFlag("width", "W", "image width (default 640)");
@@ -87,8 +88,9 @@ semmap::Status ParseConfig(const ArgParser& p, Config* config) {
   }
   config->out_dir = p.positional()[0];
   SEMMAP_ASSIGN_OR_RETURN(config->trajectory, ParseTrajectoryKind(p.Get("trajectory", "circle")));
-  long long frames = 0, seed = 0, width = 0, height = 0;
+  long long frames = 0, laps = 0, seed = 0, width = 0, height = 0;
   SEMMAP_RETURN_IF_ERROR(GetIntIn(p, "frames", 300, 1, 1'000'000, &frames));
+  SEMMAP_RETURN_IF_ERROR(GetIntIn(p, "laps", 1, 1, 1000, &laps));
   SEMMAP_RETURN_IF_ERROR(GetIntIn(p, "seed", 1, 0, 0x7FFFFFFFFFFFFFFFLL, &seed));
   SEMMAP_RETURN_IF_ERROR(GetIntIn(p, "width", 640, 16, 8192, &width));
   SEMMAP_RETURN_IF_ERROR(GetIntIn(p, "height", 480, 16, 8192, &height));
@@ -96,6 +98,7 @@ semmap::Status ParseConfig(const ArgParser& p, Config* config) {
 
   config->seed = static_cast<uint64_t>(seed);
   config->trajectory_options.frames = static_cast<int>(frames);
+  config->trajectory_options.laps = static_cast<int>(laps);
   config->trajectory_options.rate_hz = rate;
   config->trajectory_options.seed = config->seed;
 

@@ -35,9 +35,9 @@ int64_t StampOf(const TrajectoryOptions& options, int i) {
          1000 * static_cast<int64_t>(std::llround(i * 1e6 / options.rate_hz));
 }
 
-// The fraction of a lap at frame i: 0 at the first frame, 1 at the last.
+// Laps completed at frame i: 0 at the first frame, options.laps at the last.
 double LapFraction(const TrajectoryOptions& options, int i) {
-  return options.frames > 1 ? static_cast<double>(i) / (options.frames - 1) : 0.0;
+  return options.frames > 1 ? static_cast<double>(options.laps) * i / (options.frames - 1) : 0.0;
 }
 
 template <typename PoseAt>
@@ -96,6 +96,10 @@ Status ValidateTrajectoryOptions(const Eigen::AlignedBox3d& room,
   if (!std::isfinite(options.rate_hz) || options.rate_hz <= 0 || options.rate_hz > 1000) {
     return InvalidArgumentError("trajectory rate must be in (0, 1000] Hz, got " +
                                 std::to_string(options.rate_hz));
+  }
+  if (options.laps < 1 || options.laps > 1000) {
+    return InvalidArgumentError("trajectory laps must be 1..1000, got " +
+                                std::to_string(options.laps));
   }
   if (room.isEmpty() || !room.sizes().allFinite() || room.sizes().x() < 3.0 ||
       room.sizes().y() < 3.0 || room.sizes().z() < 2.0) {
@@ -235,7 +239,8 @@ StatusOr<std::vector<StampedPose>> TourTrajectory(const Eigen::AlignedBox3d& roo
   const int n = static_cast<int>(stops.size());
   return Generate(room, options, [&](const Geometry&, int i) {
     // Each stop's share of the lap: 40 % stepping sideways at it, 60 % walking to the next.
-    const double u = LapFraction(options, i) * n;
+    const double laps = LapFraction(options, i);
+    const double u = (laps - std::floor(laps)) * n;  // within this lap
     const int k = std::min(static_cast<int>(u), n - 1);
     const double f = u - k;
     const Stop& a = stops[static_cast<size_t>(k)];

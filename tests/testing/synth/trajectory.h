@@ -3,9 +3,10 @@
 // textured walls, furniture and objects (slightly downwards, never at a surface closer than
 // about half a metre in the default room).
 //
-// The loops (circle, figure-eight, corridor) and the pure rotation make exactly one lap over
-// the requested frames, so the last pose equals the first (a revisit for loop closure) and
-// the speed follows from the frame count (300 frames at 30 Hz: about 0.5 m/s). Fast motion is
+// The loops (circle, figure-eight, corridor, tour) and the pure rotation make exactly
+// `laps` laps (default one) over the requested frames, so the last pose equals the first (a
+// revisit for loop closure) and the speed follows from the frame count (300 frames a lap at
+// 30 Hz: about 0.5 m/s). Fast motion is
 // time-based (about 1.5-3 m/s and up to ~200 deg/s at any frame count) and varies with the
 // seed; it does not return to its start.
 #pragma once
@@ -23,6 +24,9 @@ namespace semmap::synth {
 struct TrajectoryOptions {
   int frames = 300;
   double rate_hz = 30.0;
+  // Laps of a loop over the frames (later laps revisit the first: long sessions over one
+  // place). Fast motion ignores it.
+  int laps = 1;
   // Frame i is stamped start + i / rate rounded to whole microseconds (exact in TUM files).
   int64_t start_stamp_ns = 1'700'000'000'000'000'000;  // 2023-11-14, a plausible Unix stamp
   double camera_height = 1.3;                          // metres above the floor
@@ -37,8 +41,8 @@ struct TrajectoryOptions {
   double tour_distance = 1.0;  // metres from each target (horizontally)
 };
 
-// frames 1..1,000,000, rate 0 < r <= 1000 Hz, a room at least 3 x 3 x 2 m, the camera height
-// within 0.3 m of the floor and ceiling.
+// frames 1..1,000,000, rate 0 < r <= 1000 Hz, laps 1..1000, a room at least 3 x 3 x 2 m, the camera
+// height within 0.3 m of the floor and ceiling.
 Status ValidateTrajectoryOptions(const Eigen::AlignedBox3d& room, const TrajectoryOptions& options);
 
 // A circle of radius 0.36 * min(half room extents) around the room's centre, looking outwards.

@@ -170,6 +170,35 @@ TEST(TrajectoryTest, TourLooksAtEachTargetFromItsDistanceAndComesBack) {
   EXPECT_EQ(TourTrajectory(kRoom, vertical).status().code(), StatusCode::kInvalidArgument);
 }
 
+// Three laps over 3n + 1 frames pass frame k of the single lap over n + 1 frames at k, n + k
+// and 2n + k: a long session revisiting the same place.
+TEST(TrajectoryTest, LapsRepeatTheLoop) {
+  std::vector<TrajectoryKind> kinds(std::begin(kLoops), std::end(kLoops));
+  kinds.push_back(TrajectoryKind::kTour);
+  for (TrajectoryKind kind : kinds) {
+    SCOPED_TRACE(std::string(TrajectoryKindName(kind)));
+    TrajectoryOptions one = kind == TrajectoryKind::kTour ? TourOptions() : TrajectoryOptions{};
+    one.frames = 101;
+    TrajectoryOptions three = one;
+    three.frames = 301;
+    three.laps = 3;
+    const std::vector<StampedPose> lap = Make(kind, one);
+    const std::vector<StampedPose> laps = Make(kind, three);
+    ASSERT_EQ(laps.size(), 301u);
+    for (size_t k = 0; k < lap.size(); k += 5) {
+      for (size_t l = 0; l < 3; ++l) {
+        const Eigen::Isometry3d delta =
+            lap[k].T_world_camera.inverse() * laps[100 * l + k].T_world_camera;
+        EXPECT_LT(delta.translation().norm(), 1e-6) << "frame " << k << " lap " << l;
+        EXPECT_LT(RotationAngle(delta), 1e-6) << "frame " << k << " lap " << l;
+      }
+    }
+  }
+  TrajectoryOptions options;
+  options.laps = 0;
+  EXPECT_EQ(CircleTrajectory(kRoom, options).status().code(), StatusCode::kInvalidArgument);
+}
+
 TEST(TrajectoryTest, NamesAndValidation) {
   for (TrajectoryKind kind :
        {TrajectoryKind::kCircle, TrajectoryKind::kFigureEight, TrajectoryKind::kCorridorLoop,
