@@ -92,6 +92,10 @@ struct KeyframeRecord {
   // closure; opaque to the store, which checksums them. Empty when the mode keeps none.
   std::string features_format;  // e.g. "semmap-features-v1"
   std::string features;
+  // Redundant (keyframe culling): its features are gone; its pose still chains the graph.
+  // Set by the store when read; a culled keyframe is written as such through
+  // WriteBatch::culled_keyframes.
+  bool culled = false;
 };
 
 // A corrected pose for a frame (and its keyframe, when it is one) after the back end moved

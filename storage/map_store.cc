@@ -42,6 +42,7 @@ void WriteBatch::Append(WriteBatch&& other) {
   MoveAppend(links, std::move(other.links));
   MoveAppend(blobs, std::move(other.blobs));
   MoveAppend(pose_updates, std::move(other.pose_updates));
+  MoveAppend(culled_keyframes, std::move(other.culled_keyframes));
   MoveAppend(observations, std::move(other.observations));
   MergeReplacements(instances, std::move(other.instances));
   MergeReplacements(map_points, std::move(other.map_points));

@@ -23,6 +23,9 @@ struct WriteBatch {
   // Applied after frames and keyframes: moves the frame row (and the keyframe row when the
   // frame is a keyframe) of (session_id, seq). NOT_FOUND when the frame does not exist.
   std::vector<PoseUpdate> pose_updates;
+  // Applied after keyframes: marks the keyframe (session_id, seq) culled and deletes its
+  // features (KeyframeRecord::culled). NOT_FOUND when the keyframe does not exist.
+  std::vector<std::pair<int64_t, int64_t>> culled_keyframes;
   // Applied after keyframes (an observation may name a keyframe of the same batch).
   std::vector<ObjectObservation> observations;
   // Each replaces every stored instance of its map (the fusion's current answer).
@@ -31,7 +34,8 @@ struct WriteBatch {
   std::vector<std::pair<int64_t, std::vector<MapPointRecord>>> map_points;  // (map_id, all)
   bool empty() const {
     return frames.empty() && keyframes.empty() && links.empty() && blobs.empty() &&
-           pose_updates.empty() && observations.empty() && instances.empty() && map_points.empty();
+           pose_updates.empty() && culled_keyframes.empty() && observations.empty() &&
+           instances.empty() && map_points.empty();
   }
   void Append(WriteBatch&& other);
 };

@@ -6,12 +6,15 @@
 #include <string>
 #include <utility>
 
+#include "common/thread_priority.h"
+
 namespace semmap {
 namespace {
 
 // How many rows of each kind one batch contributed to a merged batch.
 struct BatchShape {
-  size_t frames = 0, keyframes = 0, links = 0, blobs = 0, pose_updates = 0, observations = 0;
+  size_t frames = 0, keyframes = 0, links = 0, blobs = 0, pose_updates = 0, culled_keyframes = 0,
+         observations = 0;
   std::vector<int64_t> instance_maps;  // maps whose instances the batch replaces
   std::vector<int64_t> point_maps;     // maps whose map points the batch replaces
 };
@@ -31,6 +34,7 @@ BatchShape ShapeOf(const WriteBatch& b) {
   shape.links = b.links.size();
   shape.blobs = b.blobs.size();
   shape.pose_updates = b.pose_updates.size();
+  shape.culled_keyframes = b.culled_keyframes.size();
   shape.observations = b.observations.size();
   shape.instance_maps = MapsOf(b.instances);
   shape.point_maps = MapsOf(b.map_points);
@@ -75,6 +79,8 @@ std::vector<WriteBatch> Split(WriteBatch&& merged, const std::vector<BatchShape>
     b.links = TakeRange(merged.links, offset.links, shape.links);
     b.blobs = TakeRange(merged.blobs, offset.blobs, shape.blobs);
     b.pose_updates = TakeRange(merged.pose_updates, offset.pose_updates, shape.pose_updates);
+    b.culled_keyframes =
+        TakeRange(merged.culled_keyframes, offset.culled_keyframes, shape.culled_keyframes);
     b.observations = TakeRange(merged.observations, offset.observations, shape.observations);
   }
   ReturnReplacements(std::move(merged.instances), shapes, &BatchShape::instance_maps,
@@ -104,7 +110,10 @@ StatusOr<std::unique_ptr<StorageWriter>> StorageWriter::Start(std::unique_ptr<Ma
   std::unique_ptr<StorageWriter> writer(new StorageWriter(std::move(store), options));
   {
     MutexLock lock(writer->stop_mutex_);
-    writer->thread_ = std::thread([w = writer.get()] { w->Run(); });
+    writer->thread_ = std::thread([w = writer.get()] {
+      NameCurrentThread("sqlite-writer");
+      w->Run();
+    });
     // Nothing reaches the thread before Start returns, so it never reads this id too early.
     writer->writer_id_ = writer->thread_.get_id();
   }

@@ -3,6 +3,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <cmath>
+#include <unordered_map>
+#include <unordered_set>
 
 namespace semmap {
 
@@ -71,7 +73,7 @@ void LocalMap::AddKeyframe(int keyframe_id, const FrameFeatures& f, const Eigen:
   kept.reserve(points_.size() + new_keypoints.size());
   for (size_t i = 0; i < points_.size(); ++i) {
     const MapPoint& mp = points_[i];
-    if (mp.last_keyframe <= keyframe_id - options_.window_keyframes) continue;
+    if (mp.retired || mp.last_keyframe <= keyframe_id - options_.window_keyframes) continue;
     if (mp.visible >= options_.min_visible && mp.found < options_.min_found_ratio * mp.visible) {
       continue;
     }
@@ -102,6 +104,12 @@ void LocalMap::AddKeyframe(int keyframe_id, const FrameFeatures& f, const Eigen:
 
 void LocalMap::Merge(const LocalMapUpdate& update, const Eigen::Isometry3d& T_new_update,
                      int keyframe_id) {
+  if (!update.retired_ids.empty()) {
+    const std::unordered_set<int64_t> retired(update.retired_ids.begin(), update.retired_ids.end());
+    for (MapPoint& mp : points_) {
+      if (retired.count(mp.id) != 0) mp.retired = true;
+    }
+  }
   const size_t n = update.ids.size();
   if (n == 0 || update.positions_world.size() != n || update.octaves.size() != n ||
       update.descriptors.rows != static_cast<int>(n) ||

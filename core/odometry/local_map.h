@@ -41,6 +41,9 @@ struct MapPoint {
   int octave = 0;          // pyramid level of the newest observation
   int visible = 0;         // frames that predicted it in view
   int found = 0;           // ... and matched it as an inlier
+  // The back end fused it into another point (published under that point's id): it is no
+  // longer projected or matched, and goes at the next keyframe.
+  bool retired = false;
 };
 
 // Points of the back end's map for a session's tracker (after each local bundle adjustment):
@@ -52,6 +55,9 @@ struct LocalMapUpdate {
   std::vector<Eigen::Vector3d> positions_world;
   std::vector<int> octaves;  // of the observation the descriptor comes from
   cv::Mat descriptors;       // one row per point
+  // Tracker ids of this session fused into one of the points above: without retiring them the
+  // tracker would keep matching a stale copy of each fused point beside the refined one.
+  std::vector<int64_t> retired_ids;
 };
 
 class LocalMap {
@@ -81,7 +87,7 @@ class LocalMap {
 
   // Takes the back end's points (positions re-expressed as T_new_update * p): known ids move
   // to the refined position, unknown ones are added as observed by keyframe `keyframe_id` (so
-  // they stay for the window unless tracking finds them again).
+  // they stay for the window unless tracking finds them again); retired ids are retired.
   void Merge(const LocalMapUpdate& update, const Eigen::Isometry3d& T_new_update, int keyframe_id);
 
   // Re-expresses every point as T_new_world * point.

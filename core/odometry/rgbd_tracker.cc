@@ -126,6 +126,7 @@ void RgbdTracker::ProjectMap(const Eigen::Isometry3d& T_world_camera,
   predicted->assign(map_.size(), std::nullopt);
   visible->clear();
   for (size_t i = 0; i < map_.size(); ++i) {
+    if (map_.point(i).retired) continue;
     const Eigen::Vector3d p = T_cw * map_.point(i).position_world;
     if (!(p.z() > options_.features.min_depth_m) || p.z() > options_.features.max_depth_m) continue;
     const double u = c.fx * p.x() / p.z() + c.cx, v = c.fy * p.y() / p.z() + c.cy;

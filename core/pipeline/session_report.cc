@@ -57,14 +57,15 @@ void SessionReport::LogEnd(const SessionInfo& session, const MapSessionReport& m
       "by xi, {} taken back by the graph, {} optimisations ({} failed), queue high water {}; "
       "local BA: {} runs ({} failed, {} time-limited, {} shrunk, {} skipped), p50 {:.1f} ms, "
       "{} outlier observations removed, {} map points ({} observations), {} culled, {} fused "
-      "across loops",
+      "across loops; point fusion: {} observations joined, {} duplicates fused",
       session.name, session.map_name, lost_frames_, segments_, stats.keyframes,
       stats.restored_keyframes, stats.keyframes_culled, stats.restored_map_points, stats.candidates,
       stats.loops_accepted, stats.rejected_geometry, stats.rejected_xi, stats.rejected_inconsistent,
       stats.optimisations, stats.failed_optimisations, stats.queue_high_water, stats.local_ba_runs,
       stats.local_ba_failures, stats.local_ba_time_limited, stats.local_ba_shrunk,
       stats.local_ba_skipped, stats.local_ba_ms.p50_ms, stats.ba_outliers_removed, stats.map_points,
-      stats.map_point_observations, stats.map_points_culled, stats.map_points_fused);
+      stats.map_point_observations, stats.map_points_culled, stats.map_points_fused,
+      stats.map_point_observations_joined, stats.map_points_fused_by_projection);
 }
 
 }  // namespace semmap

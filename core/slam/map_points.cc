@@ -165,6 +165,27 @@ bool MapPoints::Fuse(int64_t keep, int64_t drop) {
   return true;
 }
 
+bool MapPoints::AddObservation(int64_t id, int keyframe, int keypoint) {
+  const auto it = points_.find(id);
+  if (it == points_.end() || keyframe < 0 || keypoint < 0) return false;
+  std::vector<MapPointObservation>& observations = it->second.observations;
+  if (std::any_of(observations.begin(), observations.end(),
+                  [&](const MapPointObservation& o) { return o.keyframe == keyframe; })) {
+    return false;
+  }
+  // Kept in keyframe order: the newest observation stays last (its descriptor is the point's).
+  const auto at =
+      std::upper_bound(observations.begin(), observations.end(), keyframe,
+                       [](int k, const MapPointObservation& o) { return k < o.keyframe; });
+  observations.insert(at, {keyframe, keypoint});
+  if (points_of_keyframe_.size() <= static_cast<size_t>(keyframe)) {
+    points_of_keyframe_.resize(static_cast<size_t>(keyframe) + 1);
+  }
+  points_of_keyframe_[static_cast<size_t>(keyframe)].push_back(id);
+  ++num_observations_;
+  return true;
+}
+
 int64_t MapPoints::Restore(int64_t session_id, const Eigen::Vector3d& position_world,
                            std::vector<MapPointObservation> observations) {
   std::sort(observations.begin(), observations.end(),

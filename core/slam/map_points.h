@@ -91,6 +91,9 @@ class MapPoints {
   // tracker id names keep from now on. False (nothing changed) when either is unknown or they
   // are the same point.
   bool Fuse(int64_t keep, int64_t drop);
+  // Keypoint `keypoint` of `keyframe` observes point `id` (point fusion found it there). False
+  // (nothing changed) for an unknown point or one `keyframe` already observes.
+  bool AddObservation(int64_t id, int keyframe, int keypoint);
   // A point read back from the store (a restarted server), created by session `session_id`,
   // observed by `observations` (graph nodes, any order; one per keyframe is kept). It has no
   // tracker id until a session's tracker is given it (TrackerIdFor) and is not culled as a

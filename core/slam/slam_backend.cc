@@ -59,6 +59,7 @@ Status SlamBackendOptions::Validate() const {
         "slam tracking map: counts and radius >= 0, angle in [0, 180] degrees");
   }
   SEMMAP_RETURN_IF_ERROR(culling.Validate().WithContext("slam"));
+  SEMMAP_RETURN_IF_ERROR(point_fusion.Validate().WithContext("slam"));
   return local_ba.Validate().WithContext("slam");
 }
 
@@ -77,7 +78,8 @@ StatusOr<MapSnapshot> ReadMapSnapshot(MapStore& store, int64_t map_id,
     SEMMAP_ASSIGN_OR_RETURN(std::vector<KeyframeRecord> keyframes,
                             store.ListKeyframeFeatures(s.id));
     for (KeyframeRecord& kf : keyframes) {
-      if (!kf.features.empty()) snapshot.keyframes.push_back(std::move(kf));
+      // Culled keyframes have no features but still chain the graph (their links).
+      if (!kf.features.empty() || kf.culled) snapshot.keyframes.push_back(std::move(kf));
     }
     SEMMAP_ASSIGN_OR_RETURN(std::vector<TrajectoryPose> frames,
                             store.GetTrajectory(s.id, /*keyframes_only=*/false));
@@ -95,6 +97,7 @@ StatusOr<std::unique_ptr<SlamBackend>> SlamBackend::Start(
   SEMMAP_RETURN_IF_ERROR(options.Validate());
   if (writer == nullptr) return InvalidArgumentError("slam back end needs a storage writer");
   stage.name = "slam back end of map " + std::to_string(map_id);
+  stage.thread_name = "slam-backend";
   stage.queue_capacity = options.queue_capacity;
   // Its corrections keep the trackers right: normal priority, unlike the other map stages.
   stage.background = false;
@@ -146,10 +149,21 @@ void SlamBackend::Restore(const MapSnapshot& snapshot) {
       cameras[s.id] = &state.camera;
     }
   }
-  uint64_t restored = 0, unreadable = 0;
+  uint64_t restored = 0, unreadable = 0, culled = 0;
   for (const KeyframeRecord& record : snapshot.keyframes) {
     const auto session = cameras.find(record.session_id);
     if (session == cameras.end()) continue;  // not of this map
+    if (record.culled) {
+      // A pose node only: out of BA, covisibility, loop search and the place database.
+      GraphKeyframe kf;
+      kf.session_id = record.session_id;
+      kf.seq = record.seq;
+      kf.T_world_keyframe = record.T_world_camera;
+      kf.camera = session->second;
+      graph_.Cull(graph_.Add(std::move(kf)));
+      ++culled;
+      continue;
+    }
     StatusOr<FrameFeatures> features = DecodeFeatures(record.features_format, record.features);
     if (!features.ok()) {
       // Damage in one stored keyframe must not keep the map from loading: it is left out.
@@ -171,6 +185,7 @@ void SlamBackend::Restore(const MapSnapshot& snapshot) {
   {
     std::lock_guard lock(mutex_);
     stats_.restored_keyframes += restored;
+    stats_.restored_culled_keyframes += culled;
     stats_.unreadable_keyframes += unreadable;
   }
   for (const LinkRecord& link : snapshot.links) {
@@ -187,10 +202,12 @@ void SlamBackend::Restore(const MapSnapshot& snapshot) {
     graph_.AddEdge(edge);
   }
   RestoreMapPoints(snapshot.map_points);
-  // Each stored frame follows the latest keyframe at or before it, as it did when tracked.
+  // Each stored frame follows the latest kept keyframe at or before it, as it did when tracked
+  // (or once its keyframe was culled).
   std::map<int64_t, std::pair<int64_t, Eigen::Isometry3d>> last_keyframe;  // by session
   for (const auto& [session_id, pose] : snapshot.frames) {
-    if (graph_.Find(session_id, pose.seq))
+    const std::optional<int> keyframe = graph_.Find(session_id, pose.seq);
+    if (keyframe && !graph_.node(*keyframe).culled)
       last_keyframe[session_id] = {pose.seq, pose.T_world_camera};
     const auto anchor = last_keyframe.find(session_id);
     if (anchor == last_keyframe.end()) continue;
@@ -344,6 +361,7 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
                             added.T_world_keyframe, event.point_ids);
     keyframes_since_final_ba_ = true;
     map_points_changed_ = true;
+    FusePoints(index);
     LocalBundleAdjust(index);
     CullKeyframes(index);
   }
@@ -562,6 +580,36 @@ void SlamBackend::LocalBundleAdjust(int index) {
   local_ba_ms_.Add(MillisecondsSince(t0));
 }
 
+std::vector<int> SlamBackend::Neighbourhood(int index) const {
+  std::vector<int> keyframes{index};
+  for (const auto& [k, shared] : map_points_.Covisible(index)) {
+    if (static_cast<int>(keyframes.size()) > options_.tracking_map_covisible_keyframes) break;
+    keyframes.push_back(k);
+  }
+  // Keyframes of other sessions (earlier ones, a restored map's) count once a loop has joined
+  // them to this session's frame: their points are where the new keyframe is.
+  const auto skip = [&](int k) {
+    return !graph_.SameComponent(k, index) ||
+           std::find(keyframes.begin(), keyframes.end(), k) != keyframes.end();
+  };
+  int near = 0;
+  for (int k : graph_.Near(graph_.node(index).T_world_keyframe, options_.tracking_map_near_radius_m,
+                           options_.tracking_map_near_angle_deg * kPi / 180.0, skip)) {
+    if (near++ >= options_.tracking_map_near_keyframes) break;
+    keyframes.push_back(k);
+  }
+  return keyframes;
+}
+
+void SlamBackend::FusePoints(int index) {
+  if (!options_.point_fusion.enabled) return;
+  const PointFusionResult result = FusePointsIntoKeyframe(index, Neighbourhood(index), graph_,
+                                                          map_points_, options_.point_fusion);
+  std::lock_guard lock(mutex_);
+  stats_.map_point_observations_joined += static_cast<uint64_t>(result.observations_added);
+  stats_.map_points_fused_by_projection += static_cast<uint64_t>(result.points_fused);
+}
+
 void SlamBackend::PublishTrackingMap(int index) {
   const GraphKeyframe& newest = graph_.node(index);
   const auto registered = [&] {
@@ -572,23 +620,7 @@ void SlamBackend::PublishTrackingMap(int index) {
     std::lock_guard lock(mutex_);
     if (registered() == nullptr || options_.tracking_map_max_points == 0) return;
   }
-  std::vector<int> keyframes{index};
-  for (const auto& [k, shared] : map_points_.Covisible(index)) {
-    if (static_cast<int>(keyframes.size()) > options_.tracking_map_covisible_keyframes) break;
-    keyframes.push_back(k);
-  }
-  // Keyframes of other sessions (earlier ones, a restored map's) count once a loop has joined
-  // them to this session's frame: their points are where the tracker is.
-  const auto skip = [&](int k) {
-    return !graph_.SameComponent(k, index) ||
-           std::find(keyframes.begin(), keyframes.end(), k) != keyframes.end();
-  };
-  int near = 0;
-  for (int k : graph_.Near(newest.T_world_keyframe, options_.tracking_map_near_radius_m,
-                           options_.tracking_map_near_angle_deg * kPi / 180.0, skip)) {
-    if (near++ >= options_.tracking_map_near_keyframes) break;
-    keyframes.push_back(k);
-  }
+  const std::vector<int> keyframes = Neighbourhood(index);
   auto update = std::make_shared<LocalMapUpdate>();
   std::set<int64_t> taken;
   for (int k : keyframes) {
@@ -599,7 +631,18 @@ void SlamBackend::PublishTrackingMap(int index) {
       // The descriptor and scale of its newest observation.
       const MapPointObservation& o = point->observations.back();
       const FrameFeatures& f = *graph_.node(o.keyframe).features;
-      update->ids.push_back(map_points_.TrackerIdFor(newest.session_id, id));
+      const int64_t tracker_id = map_points_.TrackerIdFor(newest.session_id, id);
+      update->ids.push_back(tracker_id);
+      // The session's other names of it: points fusion merged into it.
+      if (point->session_id == newest.session_id && point->tracker_id >= 0 &&
+          point->tracker_id != tracker_id) {
+        update->retired_ids.push_back(point->tracker_id);
+      }
+      for (const auto& [session, alias] : point->aliases) {
+        if (session == newest.session_id && alias != tracker_id) {
+          update->retired_ids.push_back(alias);
+        }
+      }
       update->positions_world.push_back(point->position_world);
       update->octaves.push_back(f.keypoints[static_cast<size_t>(o.keypoint)].octave);
       update->descriptors.push_back(f.descriptors.row(o.keypoint));
@@ -689,9 +732,10 @@ void SlamBackend::RestoreMapPoints(const std::vector<MapPointRecord>& records) {
     if (!record.position_world.allFinite()) continue;
     observations.clear();
     for (const MapPointObservationRecord& o : record.observations) {
-      // Keyframes left out (unreadable features, a live session's) take their observations.
+      // Keyframes left out (unreadable features, a live session's) or culled (points saved
+      // before the culling was) take their observations.
       const std::optional<int> keyframe = graph_.Find(o.session_id, o.seq);
-      if (!keyframe || o.keypoint < 0 ||
+      if (!keyframe || graph_.node(*keyframe).culled || o.keypoint < 0 ||
           static_cast<size_t>(o.keypoint) >= graph_.node(*keyframe).features->size()) {
         continue;
       }
@@ -716,6 +760,7 @@ void SlamBackend::CullKeyframes(int newest) {
     }
     bow_.erase(k);
     ReanchorFrames(k);
+    pending_.culled_keyframes.emplace_back(graph_.node(k).session_id, graph_.node(k).seq);
   }
   if (culled.empty()) return;
   std::lock_guard lock(mutex_);

@@ -35,6 +35,7 @@
 #include "core/slam/loop_verifier.h"
 #include "core/slam/map_points.h"
 #include "core/slam/place_database.h"
+#include "core/slam/point_fusion.h"
 #include "core/slam/pose_graph.h"
 #include "storage/map_store_opener.h"
 #include "storage/pending_writes.h"
@@ -50,6 +51,9 @@ struct SlamBackendOptions {
   LocalBundleAdjustmentOptions local_ba;
   // After each local BA, among the new keyframe's covisible ones (needs local_ba).
   KeyframeCullingOptions culling;
+  // Before each local BA: the points of the keyframes around the new one (those of the
+  // tracking map below) are searched in it by projection, joined or fused (needs local_ba).
+  PointFusionOptions point_fusion;
   // The points sent back to a session's tracker after each local BA: those observed by the
   // newest keyframe's most covisible keyframes and by its keyframes near the newest one's
   // pose (a revisited place), at most tracking_map_max_points. 0 keyframes: nothing is sent.
@@ -155,7 +159,8 @@ struct LoopClosureInfo {
 struct SlamBackendStats {
   uint64_t keyframes = 0;
   uint64_t restored_keyframes = 0;
-  uint64_t unreadable_keyframes = 0;  // stored features that did not decode: left out
+  uint64_t restored_culled_keyframes = 0;  // pose nodes only (WriteBatch::culled_keyframes)
+  uint64_t unreadable_keyframes = 0;       // stored features that did not decode: left out
   uint64_t restored_map_points = 0;
   uint64_t map_point_saves = 0;  // snapshots of the map points written to the store
   uint64_t candidates = 0;
@@ -177,6 +182,10 @@ struct SlamBackendStats {
   uint64_t ba_outliers_removed = 0;
   uint64_t map_points_culled = 0;
   uint64_t map_points_fused = 0;  // across accepted loops
+  // Point fusion (point_fusion.h) at each keyframe: keypoints that joined a neighbour's point,
+  // and duplicate points merged.
+  uint64_t map_point_observations_joined = 0;
+  uint64_t map_points_fused_by_projection = 0;
   size_t map_points = 0;
   size_t map_point_observations = 0;
   size_t queue_high_water = 0;
@@ -278,6 +287,10 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   // bundle adjustment sees the loop through shared points.
   void FuseLoopPoints(const LoopClosureInfo& loop);
   // Sends the session of keyframe `index` the points its tracker should match against.
+  // Keyframe `index`, its most covisible keyframes and the keyframes near its pose (of its
+  // component): the tracking map's keyframes and point fusion's neighbours.
+  std::vector<int> Neighbourhood(int index) const;
+  void FusePoints(int index);  // PointFusionOptions, before the local BA
   void PublishTrackingMap(int index);
   // Publishes the moves of the nodes in `before` that moved: the layers' listener, stored
   // poses of their frames, the sessions whose latest keyframe moved; with move_points, the

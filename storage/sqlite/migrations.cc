@@ -206,6 +206,13 @@ CREATE TABLE map_points (
 ) STRICT;
 )sql";
 
+// Version 6: keyframe culling (core/slam/keyframe_culling.h) marks a keyframe redundant: it
+// keeps its row, images and pose (frames and links still chain through it) but its features
+// are deleted, and a restarted back end restores it as culled, not as a full keyframe.
+constexpr char kSchemaV6[] = R"sql(
+ALTER TABLE keyframes ADD COLUMN culled INTEGER NOT NULL DEFAULT 0 CHECK (culled IN (0, 1));
+)sql";
+
 // One step a line: clang-format would pack them into columns.
 // clang-format off
 constexpr Migration kMigrations[] = {
@@ -214,6 +221,7 @@ constexpr Migration kMigrations[] = {
     {3, "objects", kSchemaV3},
     {4, "session end reasons", kSchemaV4},
     {5, "map points", kSchemaV5},
+    {6, "culled keyframes", kSchemaV6},
 };
 // clang-format on
 

@@ -121,6 +121,7 @@ class SqliteMapStore final : public MapStore {
   Status WriteBlob(const MapBlob& blob);
   Status WriteKeyframeFeatures(int64_t keyframe_id, const KeyframeRecord& keyframe);
   Status ApplyPoseUpdate(const PoseUpdate& update);
+  Status CullKeyframe(int64_t session_id, int64_t seq);  // WriteBatch::culled_keyframes
   // Map points (schema v5): the map's rows are deleted, then each point inserted.
   // INVALID_ARGUMENT for a non-finite position, a negative keypoint or a repeated point id.
   Status ReplaceMapPoints(int64_t map_id, const std::vector<MapPointRecord>& points);

@@ -36,7 +36,7 @@ StatusOr<std::vector<TrajectoryPose>> SqliteMapStore::GetTrajectory(int64_t sess
 
 namespace {
 
-// Columns 0..13 of the keyframe queries below; 14 and 15 are the image bytes when selected.
+// Columns 0..14 of the keyframe queries below; 15 and 16 are the image bytes when selected.
 KeyframeRecord KeyframeFromRow(const sqlite::Statement& stmt, bool with_images) {
   KeyframeRecord kf;
   kf.id = stmt.ColumnInt64(0);
@@ -47,9 +47,10 @@ KeyframeRecord KeyframeFromRow(const sqlite::Statement& stmt, bool with_images) 
   kf.colour.format = stmt.ColumnText(11);
   kf.depth.format = stmt.ColumnText(12);
   kf.depth_scale = stmt.ColumnDouble(13);
+  kf.culled = stmt.ColumnInt64(14) != 0;
   if (with_images) {
-    kf.colour.bytes = stmt.ColumnBlob(14);
-    kf.depth.bytes = stmt.ColumnBlob(15);
+    kf.colour.bytes = stmt.ColumnBlob(15);
+    kf.depth.bytes = stmt.ColumnBlob(16);
   }
   return kf;
 }
@@ -60,7 +61,7 @@ StatusOr<KeyframeRecord> SqliteMapStore::GetKeyframe(int64_t keyframe_id) {
   SEMMAP_ASSIGN_OR_RETURN(
       StatementLease stmt,
       db_->Prepare("SELECT id, session_id, seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw,"
-                   " colour_format, depth_format, depth_scale, colour, depth"
+                   " colour_format, depth_format, depth_scale, culled, colour, depth"
                    " FROM keyframes WHERE id = ?1"));
   SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, keyframe_id));
   SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
@@ -93,10 +94,10 @@ StatusOr<std::vector<KeyframeRecord>> SqliteMapStore::ListKeyframes(int64_t sess
   SEMMAP_ASSIGN_OR_RETURN(
       StatementLease stmt,
       db_->Prepare(with_images ? "SELECT id, session_id, seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw,"
-                                 " colour_format, depth_format, depth_scale, colour, depth"
+                                 " colour_format, depth_format, depth_scale, culled, colour, depth"
                                  " FROM keyframes WHERE session_id = ?1 ORDER BY seq"
                                : "SELECT id, session_id, seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw,"
-                                 " colour_format, depth_format, depth_scale"
+                                 " colour_format, depth_format, depth_scale, culled"
                                  " FROM keyframes WHERE session_id = ?1 ORDER BY seq"));
   SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, session_id));
   std::vector<KeyframeRecord> keyframes;

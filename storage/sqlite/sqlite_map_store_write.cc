@@ -52,6 +52,11 @@ StatusOr<WriteResult> SqliteMapStore::Write(const WriteBatch& batch) {
         ApplyPoseUpdate(update).WithContext("pose update of seq " + std::to_string(update.seq) +
                                             " of session " + std::to_string(update.session_id)));
   }
+  for (const auto& [session_id, seq] : batch.culled_keyframes) {
+    SEMMAP_RETURN_IF_ERROR(CullKeyframe(session_id, seq)
+                               .WithContext("culling keyframe seq " + std::to_string(seq) +
+                                            " of session " + std::to_string(session_id)));
+  }
   // After keyframes (an observation may name one of this batch), instances after observations.
   for (size_t i = 0; i < batch.observations.size(); ++i) {
     SEMMAP_RETURN_IF_ERROR(WriteObservation(batch.observations[i])
@@ -148,6 +153,21 @@ Status SqliteMapStore::ApplyPoseUpdate(const PoseUpdate& update) {
   SEMMAP_RETURN_IF_ERROR(stmt->BindAll(update.session_id, update.seq));
   SEMMAP_RETURN_IF_ERROR(sqlite::BindPose(*stmt, 3, update.T_world_camera));
   return stmt->Run();
+}
+
+Status SqliteMapStore::CullKeyframe(int64_t session_id, int64_t seq) {
+  int64_t id = 0;
+  {
+    SEMMAP_ASSIGN_OR_RETURN(
+        StatementLease stmt,
+        db_->Prepare("SELECT id FROM keyframes WHERE session_id = ?1 AND seq = ?2"));
+    SEMMAP_RETURN_IF_ERROR(stmt->BindAll(session_id, seq));
+    SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+    if (!row) return NotFoundError("no such keyframe");
+    id = stmt->ColumnInt64(0);
+  }
+  SEMMAP_RETURN_IF_ERROR(RunWithId("UPDATE keyframes SET culled = 1 WHERE id = ?1", id));
+  return RunWithId("DELETE FROM keyframe_features WHERE keyframe_id = ?1", id);
 }
 
 StatusOr<int64_t> SqliteMapStore::ResolveLinkEnd(int64_t map_id, int64_t keyframe_id,

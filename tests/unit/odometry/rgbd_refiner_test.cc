@@ -177,6 +177,22 @@ TEST(LocalMapTest, PointsKeepTheirIdsAndTakeTheBackEndsPositions) {
   update.octaves.pop_back();
   map.Merge(update, Eigen::Isometry3d::Identity(), 1);
   EXPECT_EQ(map.size(), before + 1);
+
+  // A point the back end fused into another is retired (even by an update with no points)
+  // and gone at the next keyframe; the rest stay.
+  LocalMapUpdate retire;
+  retire.retired_ids = {ids[0]};
+  map.Merge(retire, Eigen::Isometry3d::Identity(), 1);
+  EXPECT_TRUE(map.point(0).retired);
+  EXPECT_FALSE(map.point(before).retired);
+  map.AddKeyframe(2, f, Eigen::Isometry3d::Identity(), {});
+  for (size_t i = 0; i < map.size(); ++i) {
+    EXPECT_NE(map.point(i).id, ids[0]);
+    EXPECT_FALSE(map.point(i).retired);
+  }
+  bool kept_999 = false;
+  for (size_t i = 0; i < map.size(); ++i) kept_999 |= map.point(i).id == 999;
+  EXPECT_TRUE(kept_999);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <set>
 
 #include "core/slam/feature_codec.h"
 #include "storage/sqlite/sqlite_map_store.h"
@@ -167,6 +168,9 @@ class SlamBackendTest : public ::testing::Test {
         EXPECT_TRUE(backend.Drain().ok());
       }
     }
+    // The frames and keyframes written above are committed before anything reads them: the
+    // back end's Drain waits for its own writes only (none, when nothing moved).
+    EXPECT_TRUE(writer_->RunSync([](MapStore&) { return OkStatus(); }).ok());
     return reported;
   }
 
@@ -429,6 +433,7 @@ TEST_F(SlamBackendTest, LoopContradictedByTheOptimisedGraphIsTakenBack) {
   for (const LinkRecord& l : *links) EXPECT_EQ(l.kind, LinkKind::kOdometry);
   auto stored = reader_->ListKeyframes(session_.id, false);
   ASSERT_TRUE(stored.ok());
+  ASSERT_EQ(stored->size(), kfs.size());
   for (size_t i = 0; i < kfs.size(); ++i) {
     EXPECT_TRUE((*stored)[i].T_world_camera.isApprox(reported[i], 1e-9)) << "keyframe " << i;
   }
@@ -535,6 +540,31 @@ TEST_F(SlamBackendTest, CullingDropsRedundantKeyframesAndKeepsTheTrajectory) {
   EXPECT_LT(culled_stats.map_point_observations, kept_stats.map_point_observations);
   EXPECT_LT(culled_error, kept_error + 0.003);
   EXPECT_LT(culled_error, 0.03);
+
+  // Culling is stored: the culled keyframes keep their rows but lose their features, and a
+  // restarted back end restores them as pose nodes, not as full keyframes.
+  auto stored = reader_->ListKeyframeFeatures(session_.id);
+  ASSERT_TRUE(stored.ok()) << stored.status().ToString();
+  ASSERT_EQ(stored->size(), kfs.size());
+  size_t stored_culled = 0;
+  for (const KeyframeRecord& kf : *stored) {
+    if (kf.culled) ++stored_culled;
+    EXPECT_EQ(kf.features.empty(), kf.culled) << "seq " << kf.seq;
+  }
+  EXPECT_EQ(stored_culled, culled_stats.keyframes_culled);
+  StatusOr<MapSnapshot> snapshot = MapSnapshot{};
+  ASSERT_TRUE(writer_
+                  ->RunSync([&](MapStore& store) {
+                    snapshot = ReadMapSnapshot(store, session_.map_id);
+                    return snapshot.status();
+                  })
+                  .ok());
+  StartNewSession("after restart");
+  std::unique_ptr<SlamBackend> restarted = Start({}, nullptr, &*snapshot);
+  const SlamBackendStats restored = restarted->stats();
+  EXPECT_EQ(restored.restored_culled_keyframes,
+            culled_stats.keyframes_culled + kept_stats.keyframes_culled);
+  EXPECT_EQ(restored.restored_keyframes, 2 * kfs.size() - stored_culled);
 }
 
 // With loop-point fusion on, a closed lap's two sides share map points afterwards.
@@ -552,6 +582,29 @@ TEST_F(SlamBackendTest, AcceptedLoopFusesTheMapPointsOnBothSides) {
   const SlamBackendStats stats = backend->stats();
   EXPECT_GE(stats.loops_accepted, 1u);
   EXPECT_GT(stats.map_points_fused, 5u);  // 18-30 seen: BA solves are time-bounded
+}
+
+// A tracker that forgot what it saw names the same points anew: point fusion finds the
+// duplicates by projection and fuses them, and the tracking map update retires the session's
+// other names of each fused point, so the tracker drops its stale copies.
+TEST_F(SlamBackendTest, PointFusionMergesRenamedPointsAndRetiresTheirOtherNames) {
+  const std::vector<Keyframe> kfs = RenderKeyframes(kLapFrames / 2);
+  SlamBackendOptions options = UnboundedSolves();
+  options.local_ba.final_ba = false;  // paced: it would run after every keyframe
+  options.point_fusion.enabled = true;
+  std::unique_ptr<SlamBackend> backend = Start(options);
+  Stream(*backend, kfs, std::nullopt, /*drift=*/false, /*point_ids=*/true, /*paced=*/true,
+         /*rename_halfway=*/true);
+  ASSERT_TRUE(backend->Drain().ok());
+  const SlamBackendStats stats = backend->stats();
+  EXPECT_GT(stats.map_points_fused_by_projection, 100u);
+  ASSERT_NE(last_map_update_, nullptr);
+  ASSERT_FALSE(last_map_update_->retired_ids.empty());
+  const std::set<int64_t> published(last_map_update_->ids.begin(), last_map_update_->ids.end());
+  for (int64_t id : last_map_update_->retired_ids) {
+    EXPECT_EQ(published.count(id), 0u) << id;
+    EXPECT_LT(id, 2'000'000) << "not a name this session's tracker gave";
+  }
 }
 
 // Keyframes arriving faster than BA finishes shrink its window or skip it: the back end keeps up.

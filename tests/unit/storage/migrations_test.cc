@@ -270,5 +270,65 @@ TEST(MigrationsTest, Version4DatabaseUpgradesToMapPointsKeepingItsData) {
   EXPECT_OK(s.IntegrityCheck());
 }
 
+// Version 6 adds keyframes.culled: existing keyframes are kept (not culled) with their
+// features; culling one through a WriteBatch marks it and deletes its features only.
+TEST(MigrationsTest, Version5KeyframesUpgradeToCullable) {
+  TempDir dir;
+  const std::string path = dir.File("semmap.db");
+  {
+    auto db = Open(path);
+    ASSERT_NE(db, nullptr);
+    ASSERT_OK(ApplyMigrations(*db, SchemaMigrations().first(5)));
+    ASSERT_OK(db->Exec(
+        "INSERT INTO maps VALUES (1, 'lab', 5);"
+        "INSERT INTO sessions (id, map_id, name, mode, width, height, fx, fy, cx, cy, k1, k2, p1,"
+        " p2, k3, depth_scale, started_ns, ended_ns, end_reason) VALUES (1, 1, 's', 1, 640, 480,"
+        " 525, 525, 319.5, 239.5, 0, 0, 0, 0, 0, 5000, 7, 9, 1);"
+        "INSERT INTO keyframes VALUES (1, 1, 4, 99, 1, 2, 3, 0, 0, 0, 1, 'jpeg', x'01', 'png',"
+        " x'02', 5000);"
+        "INSERT INTO keyframes VALUES (2, 1, 8, 99, 1, 2, 3, 0, 0, 0, 1, 'jpeg', x'01', 'png',"
+        " x'02', 5000);"));
+  }
+  auto store = SqliteMapStore::Open(path, {});
+  ASSERT_OK(store.status());
+  SqliteMapStore& s = **store;
+  EXPECT_GE(LatestSchemaVersion(), 6);
+  EXPECT_EQ(*ReadSchemaVersion(s.connection()), LatestSchemaVersion());
+  // Features (bytes 01 02 and their sha256) written after the upgrade, for both keyframes.
+  ASSERT_OK(s.connection().Exec(
+      "INSERT INTO keyframe_features VALUES (1, 'f', x'0102', 2,"
+      " x'a12871fee210fb8619291eaea194581cbd2531e4b23759d225f6806923f63222');"
+      "INSERT INTO keyframe_features VALUES (2, 'f', x'0102', 2,"
+      " x'a12871fee210fb8619291eaea194581cbd2531e4b23759d225f6806923f63222');"));
+  auto listed = s.ListKeyframes(1, false);
+  ASSERT_OK(listed.status());
+  std::vector<KeyframeRecord> keyframes = *listed;
+  ASSERT_EQ(keyframes.size(), 2u);
+  EXPECT_FALSE(keyframes[0].culled);
+  EXPECT_FALSE(keyframes[1].culled);
+
+  WriteBatch batch;
+  batch.culled_keyframes.emplace_back(1, 8);
+  ASSERT_OK(s.Write(batch).status());
+  listed = s.ListKeyframes(1, /*with_images=*/true);
+  ASSERT_OK(listed.status());
+  keyframes = *listed;
+  ASSERT_EQ(keyframes.size(), 2u);
+  EXPECT_FALSE(keyframes[0].culled);
+  EXPECT_TRUE(keyframes[1].culled);
+  EXPECT_EQ(keyframes[1].colour.bytes, std::string("\x01"));  // images and pose stay
+  EXPECT_EQ(keyframes[1].T_world_camera.translation(), Eigen::Vector3d(1, 2, 3));
+  EXPECT_EQ(*s.connection().QueryInt64("SELECT COUNT(*) FROM keyframe_features"), 1);
+  EXPECT_EQ(*s.connection().QueryInt64("SELECT keyframe_id FROM keyframe_features"), 1);
+  // An unknown keyframe: NOT_FOUND, and the batch leaves nothing behind.
+  WriteBatch unknown;
+  unknown.culled_keyframes.emplace_back(1, 4);
+  unknown.culled_keyframes.emplace_back(1, 5);
+  EXPECT_EQ(s.Write(unknown).status().code(), StatusCode::kNotFound);
+  EXPECT_FALSE((*s.ListKeyframes(1, false))[0].culled);
+  EXPECT_FALSE(s.connection().Exec("UPDATE keyframes SET culled = 2").ok());  // CHECK
+  EXPECT_OK(s.IntegrityCheck());
+}
+
 }  // namespace
 }  // namespace semmap::sqlite
