@@ -24,6 +24,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # scripts: process control, JSON in bench scripts
   procps jq
+  # TLS tests make their keys and certificates with the openssl tool
+  openssl
 )
 for extra in "$@"; do
   case "$extra" in

@@ -15,6 +15,7 @@
 #include "core/odometry/mono_vo_model.h"
 #include "core/query/store_map_query.h"
 #include "core/slam/bow_vocabulary.h"
+#include "server/server_credentials.h"
 #include "storage/sqlite/sqlite_map_store.h"
 
 namespace semmap {
@@ -25,6 +26,13 @@ void StopWriterAfterError(StorageWriter& writer) {
   const Status stopped = writer.Stop();
   if (!stopped.ok())
     LogError("stopping the storage writer after a failed start: {}", stopped.ToString());
+}
+
+// Whether HOST:PORT names this machine only (plaintext is then no wider than the machine).
+bool IsLoopback(const std::string& listen) {
+  const std::string host = listen.substr(0, listen.rfind(':'));
+  return host == "localhost" || host == "[::1]" || host.rfind("127.", 0) == 0 ||
+         host.rfind("unix:", 0) == 0;
 }
 
 StatusOr<int> LockDataDir(const std::string& dir) {
@@ -43,6 +51,15 @@ StatusOr<int> LockDataDir(const std::string& dir) {
 
 StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions& options) {
   SEMMAP_RETURN_IF_ERROR(options.Validate());
+  // TLS files first: a typo there should not cost a database open and a restore.
+  SEMMAP_ASSIGN_OR_RETURN(std::shared_ptr<grpc::ServerCredentials> credentials,
+                          MakeServerCredentials(options));
+  if (options.tls_cert_file.empty() && !IsLoopback(options.listen)) {
+    LogWarning(
+        "serving {} in plaintext: anyone who can reach it can read and change every map "
+        "(give --tls-cert and --tls-key)",
+        options.listen);
+  }
   std::unique_ptr<SemmapServer> server(new SemmapServer());
   server->options_ = options;
 
@@ -130,7 +147,7 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
-  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &server->port_);
+  builder.AddListeningPort(options.listen, credentials, &server->port_);
   builder.RegisterService(server->service_.get());
   builder.SetMaxReceiveMessageSize(options.max_message_mb << 20);
   builder.SetMaxSendMessageSize(options.max_message_mb << 20);
@@ -138,8 +155,9 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   if (!server->server_ || server->port_ == 0) {
     server->server_.reset();
     StopWriterAfterError(*server->writer_);
-    return UnavailableError("cannot listen on " + options.listen +
-                            " (address in use or not valid)");
+    return UnavailableError(
+        "cannot listen on " + options.listen + " (address in use or not valid" +
+        (options.tls_cert_file.empty() ? ")" : ", or --tls-cert and --tls-key not a valid pair)"));
   }
   server->server_->GetHealthCheckService()->SetServingStatus(true);
   return server;

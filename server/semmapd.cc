@@ -27,6 +27,9 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   options->listen = args.Get("listen", options->listen);
   SEMMAP_ASSIGN_OR_RETURN(options->log_level, semmap::ParseLogLevel(args.Get("log-level", "info")));
   options->data_dir = args.Get("data-dir", options->data_dir);
+  options->tls_cert_file = args.Get("tls-cert", "");
+  options->tls_key_file = args.Get("tls-key", "");
+  options->tls_client_ca_file = args.Get("tls-client-ca", "");
   const std::string sync = args.Get("sqlite-sync", "full");
   if (sync != "full" && sync != "normal") {
     return semmap::InvalidArgumentError("--sqlite-sync must be full or normal");
@@ -140,6 +143,11 @@ int main(int argc, char** argv) {
   args.AddFlag("listen", "HOST:PORT",
                "address to serve on (default 127.0.0.1:50051; port 0 picks one)");
   args.AddFlag("data-dir", "DIR", "where the SQLite database lives (default ./semmap-data)");
+  args.AddFlag("tls-cert", "FILE",
+               "serve TLS with this PEM certificate chain (with --tls-key; default plaintext)");
+  args.AddFlag("tls-key", "FILE", "the PEM private key of --tls-cert");
+  args.AddFlag("tls-client-ca", "FILE",
+               "mutual TLS: serve only clients whose certificate this PEM CA signed");
   args.AddFlag("max-open-maps", "N",
                "maps with a live pipeline at once (default 16); a session on one more map is "
                "refused with RESOURCE_EXHAUSTED while all of them are streaming");

@@ -15,6 +15,14 @@ Status ServerOptions::Validate() const {
     return InvalidArgumentError("--listen port must be a number in 0..65535 (got '" + port + "')");
   }
   if (data_dir.empty()) return InvalidArgumentError("--data-dir must not be empty");
+  if (tls_cert_file.empty() != tls_key_file.empty()) {
+    return InvalidArgumentError("--tls-cert and --tls-key go together (got only " +
+                                std::string(tls_cert_file.empty() ? "--tls-key" : "--tls-cert") +
+                                ")");
+  }
+  if (!tls_client_ca_file.empty() && tls_cert_file.empty()) {
+    return InvalidArgumentError("--tls-client-ca needs --tls-cert and --tls-key (mutual TLS)");
+  }
   if (max_message_mb < 1 || max_message_mb > 1024) {
     return InvalidArgumentError("--max-message-mb must be in 1..1024");
   }
@@ -31,7 +39,10 @@ Status ServerOptions::Validate() const {
 std::string ServerOptions::ToString() const {
   std::ostringstream out;
   out << "listen=" << listen << " data_dir=" << data_dir << " log_level=" << LogLevelName(log_level)
-      << " sqlite_synchronous=" << (sync_full ? "FULL" : "NORMAL")
+      << " sqlite_synchronous=" << (sync_full ? "FULL" : "NORMAL") << " tls="
+      << (tls_cert_file.empty()        ? "off"
+          : tls_client_ca_file.empty() ? "on"
+                                       : "mutual")
       << " max_message_mb=" << max_message_mb << " shutdown_grace_s=" << shutdown_grace_s
       << " queue_capacity=" << ingest.queue_capacity
       << " max_frame_bytes=" << ingest.max_frame_bytes << " max_streams=" << ingest.max_streams

@@ -20,6 +20,11 @@ struct ServerOptions {
   LogLevel log_level = LogLevel::kInfo;  // semmapd applies it process-wide (SetLogLevel)
   bool sync_full = true;  // SQLite synchronous=FULL: acknowledged-durable frames survive power loss
   int max_message_mb = 64;
+  // TLS (PEM files): server certificate chain and key, both or neither (plaintext); with a
+  // client CA, only clients presenting a certificate it signed are served (mutual TLS).
+  std::string tls_cert_file;
+  std::string tls_key_file;
+  std::string tls_client_ca_file;
   int shutdown_grace_s = 5;            // time in-flight streams get to finish at shutdown
   size_t storage_queue_capacity = 64;  // write batches waiting for the storage writer
   IngestOptions ingest;

@@ -5,14 +5,24 @@ namespace semmap::cli {
 void AddCommonFlags(ArgParser& parser, bool uses_server) {
   if (uses_server) {
     parser.AddFlag("server", "HOST:PORT", "semmapd address (default 127.0.0.1:50051)");
+    parser.AddFlag("tls-ca", "FILE", "connect with TLS, trusting this PEM CA (default plaintext)");
+    parser.AddFlag("tls-cert", "FILE",
+                   "mutual TLS: this client's PEM certificate (with --tls-key)");
+    parser.AddFlag("tls-key", "FILE", "mutual TLS: the PEM private key of --tls-cert");
   }
   parser.AddSwitch("json", "print one JSON object to stdout");
   parser.AddSwitch("help", "print this help");
 }
 
-void ApplyCommonFlags(const ArgParser& parser, CliContext* context) {
+Status ApplyCommonFlags(const ArgParser& parser, CliContext* context) {
   context->server = parser.Get("server", context->server);
   if (parser.Has("json")) context->json = true;
+  if (parser.Has("tls-ca") || parser.Has("tls-cert") || parser.Has("tls-key")) {
+    SEMMAP_ASSIGN_OR_RETURN(context->tls,
+                            LoadClientTls(parser.Get("tls-ca", ""), parser.Get("tls-cert", ""),
+                                          parser.Get("tls-key", "")));
+  }
+  return OkStatus();
 }
 
 int ParseSubcommand(ArgParser& parser, CliContext* context, int argc, const char* const* argv,
@@ -28,7 +38,9 @@ int ParseSubcommand(ArgParser& parser, CliContext* context, int argc, const char
   }
   const size_t n = parser.positional().size();
   if (n < min_positional || n > max_positional) return ReportUsage(positional_error, full_usage);
-  ApplyCommonFlags(parser, context);
+  if (Status applied = ApplyCommonFlags(parser, context); !applied.ok()) {
+    return ReportUsage(applied.message(), full_usage);
+  }
   return -1;
 }
 
@@ -47,6 +59,7 @@ void PrintJson(const nlohmann::json& value) { std::cout << value.dump() << std::
 MapClient MakeClient(const CliContext& context) {
   ClientOptions options;
   options.server = context.server;
+  options.tls = context.tls;
   return MapClient(options);
 }
 

@@ -4,6 +4,7 @@
 
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "client/lib/map_client.h"
@@ -18,13 +19,15 @@ constexpr int kExitUsage = 2;  // the command line was wrong
 
 struct CliContext {
   std::string server = "127.0.0.1:50051";
+  std::optional<ClientTls> tls;  // --tls-ca / --tls-cert / --tls-key
   bool json = false;
 };
 
 // Adds --json and --help, and --server for commands that talk to semmapd, so they work
 // before or after the subcommand.
 void AddCommonFlags(ArgParser& parser, bool uses_server = true);
-void ApplyCommonFlags(const ArgParser& parser, CliContext* context);
+// INVALID_ARGUMENT for TLS files that cannot be read (naming the flag).
+Status ApplyCommonFlags(const ArgParser& parser, CliContext* context);
 
 // Parses a subcommand's argv (after its name) with the parser's own flags plus the common ones,
 // prints help or a usage error, and checks the number of positional arguments.

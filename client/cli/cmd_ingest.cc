@@ -77,7 +77,9 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
     return kExitOk;
   }
   if (parser.positional().size() != 1) return ReportUsage("ingest needs one dataset DIR", usage);
-  ApplyCommonFlags(parser, &context);
+  if (Status applied = ApplyCommonFlags(parser, &context); !applied.ok()) {
+    return ReportUsage(applied.message(), usage);
+  }
 
   IngestArgs args;
   args.dir = parser.positional()[0];

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <thread>
 
+#include "common/pem_file.h"
 #include "common/sha256.h"
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "server/serialization/conversions.h"
@@ -10,11 +11,35 @@
 
 namespace semmap {
 
+StatusOr<ClientTls> LoadClientTls(const std::string& ca_file, const std::string& cert_file,
+                                  const std::string& key_file) {
+  if (cert_file.empty() != key_file.empty()) {
+    return InvalidArgumentError("--tls-cert and --tls-key go together");
+  }
+  ClientTls tls;
+  if (!ca_file.empty()) {
+    SEMMAP_ASSIGN_OR_RETURN(tls.root_certs_pem, ReadPemFile(ca_file, "--tls-ca"));
+  }
+  if (!cert_file.empty()) {
+    SEMMAP_ASSIGN_OR_RETURN(tls.cert_chain_pem, ReadPemFile(cert_file, "--tls-cert"));
+    SEMMAP_ASSIGN_OR_RETURN(tls.private_key_pem, ReadPemFile(key_file, "--tls-key"));
+  }
+  return tls;
+}
+
 MapClient::MapClient(const ClientOptions& options) : options_(options) {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(options.max_message_mb << 20);
   args.SetMaxSendMessageSize(options.max_message_mb << 20);
-  channel_ = grpc::CreateCustomChannel(options.server, grpc::InsecureChannelCredentials(), args);
+  std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
+  if (options.tls) {
+    grpc::SslCredentialsOptions ssl;
+    ssl.pem_root_certs = options.tls->root_certs_pem;
+    ssl.pem_cert_chain = options.tls->cert_chain_pem;
+    ssl.pem_private_key = options.tls->private_key_pem;
+    credentials = grpc::SslCredentials(ssl);
+  }
+  channel_ = grpc::CreateCustomChannel(options.server, credentials, args);
   stub_ = v1::MapService::NewStub(channel_);
 }
 

@@ -17,8 +17,21 @@
 
 namespace semmap {
 
+// TLS towards semmapd, as PEM text (LoadClientTls reads the files).
+struct ClientTls {
+  std::string root_certs_pem;   // CA(s) to trust; empty: the system's roots
+  std::string cert_chain_pem;   // mutual TLS: this client's certificate chain ...
+  std::string private_key_pem;  // ... and its key (both or neither)
+};
+
+// Reads --tls-ca / --tls-cert / --tls-key (any may be empty; cert and key go together).
+// INVALID_ARGUMENT naming the flag for a file that cannot be read or is not PEM.
+StatusOr<ClientTls> LoadClientTls(const std::string& ca_file, const std::string& cert_file,
+                                  const std::string& key_file);
+
 struct ClientOptions {
   std::string server = "127.0.0.1:50051";
+  std::optional<ClientTls> tls;  // none: plaintext
   std::chrono::seconds query_timeout{30};
   int max_message_mb = 64;
 };
