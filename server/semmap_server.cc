@@ -28,13 +28,6 @@ void StopWriterAfterError(StorageWriter& writer) {
     LogError("stopping the storage writer after a failed start: {}", stopped.ToString());
 }
 
-// Whether HOST:PORT names this machine only (plaintext is then no wider than the machine).
-bool IsLoopback(const std::string& listen) {
-  const std::string host = listen.substr(0, listen.rfind(':'));
-  return host == "localhost" || host == "[::1]" || host.rfind("127.", 0) == 0 ||
-         host.rfind("unix:", 0) == 0;
-}
-
 StatusOr<int> LockDataDir(const std::string& dir) {
   const std::string path = dir + "/LOCK";
   const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
@@ -54,10 +47,10 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   // TLS files first: a typo there should not cost a database open and a restore.
   SEMMAP_ASSIGN_OR_RETURN(std::shared_ptr<grpc::ServerCredentials> credentials,
                           MakeServerCredentials(options));
-  if (options.tls_cert_file.empty() && !IsLoopback(options.listen)) {
+  if (options.tls_cert_file.empty() && !IsLoopbackAddress(options.listen)) {
     LogWarning(
-        "serving {} in plaintext: anyone who can reach it can read and change every map "
-        "(give --tls-cert and --tls-key)",
+        "serving {} in plaintext (--allow-insecure): anyone who can reach it can read, "
+        "change and delete every map",
         options.listen);
   }
   std::unique_ptr<SemmapServer> server(new SemmapServer());

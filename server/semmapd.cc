@@ -30,6 +30,7 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   options->tls_cert_file = args.Get("tls-cert", "");
   options->tls_key_file = args.Get("tls-key", "");
   options->tls_client_ca_file = args.Get("tls-client-ca", "");
+  options->allow_insecure = args.Has("allow-insecure");
   const std::string sync = args.Get("sqlite-sync", "full");
   if (sync != "full" && sync != "normal") {
     return semmap::InvalidArgumentError("--sqlite-sync must be full or normal");
@@ -148,6 +149,8 @@ int main(int argc, char** argv) {
   args.AddFlag("tls-key", "FILE", "the PEM private key of --tls-cert");
   args.AddFlag("tls-client-ca", "FILE",
                "mutual TLS: serve only clients whose certificate this PEM CA signed");
+  args.AddSwitch("allow-insecure",
+                 "serve plaintext on an address other than loopback (refused without it)");
   args.AddFlag("max-open-maps", "N",
                "maps with a live pipeline at once (default 16); a session on one more map is "
                "refused with RESOURCE_EXHAUSTED while all of them are streaming");

@@ -4,6 +4,12 @@
 
 namespace semmap {
 
+bool IsLoopbackAddress(const std::string& listen) {
+  const std::string host = listen.substr(0, listen.rfind(':'));
+  return host == "localhost" || host == "[::1]" || host.rfind("127.", 0) == 0 ||
+         listen.rfind("unix:", 0) == 0;
+}
+
 Status ServerOptions::Validate() const {
   const size_t colon = listen.rfind(':');
   if (listen.empty() || colon == std::string::npos || colon == 0) {
@@ -22,6 +28,12 @@ Status ServerOptions::Validate() const {
   }
   if (!tls_client_ca_file.empty() && tls_cert_file.empty()) {
     return InvalidArgumentError("--tls-client-ca needs --tls-cert and --tls-key (mutual TLS)");
+  }
+  if (tls_cert_file.empty() && !allow_insecure && !IsLoopbackAddress(listen)) {
+    return FailedPreconditionError(
+        "refusing to serve " + listen +
+        " in plaintext: anyone who can reach it could read, change and delete every map; give "
+        "--tls-cert and --tls-key, or --allow-insecure on a network you trust");
   }
   if (max_message_mb < 1 || max_message_mb > 1024) {
     return InvalidArgumentError("--max-message-mb must be in 1..1024");

@@ -10,6 +10,9 @@
 
 namespace semmap {
 
+// Whether HOST:PORT names this machine only: 127.x, localhost, [::1], unix:.
+bool IsLoopbackAddress(const std::string& listen);
+
 struct ServerOptions {
   // Library defaults, except what a long-running server wants: compact keyframe clouds.
   ServerOptions() { ingest.layers.occupancy.keyframe_voxel_m = kServerKeyframeVoxelM; }
@@ -25,6 +28,8 @@ struct ServerOptions {
   std::string tls_cert_file;
   std::string tls_key_file;
   std::string tls_client_ca_file;
+  // Plaintext is refused on an address other than loopback unless this is set.
+  bool allow_insecure = false;
   int shutdown_grace_s = 5;            // time in-flight streams get to finish at shutdown
   size_t storage_queue_capacity = 64;  // write batches waiting for the storage writer
   IngestOptions ingest;
