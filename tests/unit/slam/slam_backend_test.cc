@@ -174,6 +174,17 @@ class SlamBackendTest : public ::testing::Test {
     return reported;
   }
 
+  // The fixture's map as a restarting server reads it back (on the writer's thread).
+  StatusOr<MapSnapshot> ReadStoredMap() {
+    StatusOr<MapSnapshot> snapshot = MapSnapshot{};
+    const Status read = writer_->RunSync([&](MapStore& store) {
+      snapshot = ReadMapSnapshot(store, session_.map_id);
+      return snapshot.status();
+    });
+    if (!read.ok()) return read;
+    return snapshot;
+  }
+
   // Makes `name` the fixture's session (a new one of the same map and camera).
   void StartNewSession(const std::string& name) {
     ASSERT_TRUE(writer_
@@ -285,13 +296,8 @@ TEST_F(SlamBackendTest, SessionAfterRestartJoinsTheStoredMap) {
     ASSERT_TRUE(first->Drain().ok());
   }  // the server stops
 
-  StatusOr<MapSnapshot> snapshot = MapSnapshot{};
-  ASSERT_TRUE(writer_
-                  ->RunSync([&](MapStore& store) {
-                    snapshot = ReadMapSnapshot(store, session_.map_id);
-                    return snapshot.status();
-                  })
-                  .ok());
+  StatusOr<MapSnapshot> snapshot = ReadStoredMap();
+  ASSERT_TRUE(snapshot.ok()) << snapshot.status().ToString();
   EXPECT_EQ(snapshot->keyframes.size(), lap.size());
   const int64_t first_session = session_.id;
   // The second session walks a third of the lap again, starting in a frame of its own.
@@ -347,13 +353,8 @@ TEST_F(SlamBackendTest, MapPointsPersistAndReachALaterSessionsTracker) {
   ASSERT_TRUE(stored_points.ok()) << stored_points.status().ToString();
   EXPECT_EQ(stored_points->size(), first_points);
 
-  StatusOr<MapSnapshot> snapshot = MapSnapshot{};
-  ASSERT_TRUE(writer_
-                  ->RunSync([&](MapStore& store) {
-                    snapshot = ReadMapSnapshot(store, session_.map_id);
-                    return snapshot.status();
-                  })
-                  .ok());
+  StatusOr<MapSnapshot> snapshot = ReadStoredMap();
+  ASSERT_TRUE(snapshot.ok()) << snapshot.status().ToString();
   StartNewSession("again");
   std::unique_ptr<SlamBackend> second = Start(UnboundedSolves(), words, &*snapshot);
   EXPECT_EQ(second->stats().restored_map_points, first_points);
@@ -552,13 +553,8 @@ TEST_F(SlamBackendTest, CullingDropsRedundantKeyframesAndKeepsTheTrajectory) {
     EXPECT_EQ(kf.features.empty(), kf.culled) << "seq " << kf.seq;
   }
   EXPECT_EQ(stored_culled, culled_stats.keyframes_culled);
-  StatusOr<MapSnapshot> snapshot = MapSnapshot{};
-  ASSERT_TRUE(writer_
-                  ->RunSync([&](MapStore& store) {
-                    snapshot = ReadMapSnapshot(store, session_.map_id);
-                    return snapshot.status();
-                  })
-                  .ok());
+  StatusOr<MapSnapshot> snapshot = ReadStoredMap();
+  ASSERT_TRUE(snapshot.ok()) << snapshot.status().ToString();
   StartNewSession("after restart");
   std::unique_ptr<SlamBackend> restarted = Start({}, nullptr, &*snapshot);
   const SlamBackendStats restored = restarted->stats();

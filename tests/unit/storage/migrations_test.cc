@@ -222,6 +222,16 @@ TEST(MigrationsTest, Version3SessionsUpgradeToEndReasons) {
   EXPECT_OK(s.IntegrityCheck());
 }
 
+// What a v4 or later semmapd left behind: map 'lab', its ended session 's' and one keyframe
+// (seq 4 at (1, 2, 3)) with colour and depth bytes 01 and 02.
+constexpr char kLabWithOneKeyframeSinceV4[] =
+    "INSERT INTO maps VALUES (1, 'lab', 5);"
+    "INSERT INTO sessions (id, map_id, name, mode, width, height, fx, fy, cx, cy, k1, k2, p1,"
+    " p2, k3, depth_scale, started_ns, ended_ns, end_reason) VALUES (1, 1, 's', 1, 640, 480,"
+    " 525, 525, 319.5, 239.5, 0, 0, 0, 0, 0, 5000, 7, 9, 1);"
+    "INSERT INTO keyframes VALUES (1, 1, 4, 99, 1, 2, 3, 0, 0, 0, 1, 'jpeg', x'01', 'png',"
+    " x'02', 5000);";
+
 // A v4 database keeps its rows, gains the map_points table, and its keyframes can be observed.
 TEST(MigrationsTest, Version4DatabaseUpgradesToMapPointsKeepingItsData) {
   TempDir dir;
@@ -230,13 +240,7 @@ TEST(MigrationsTest, Version4DatabaseUpgradesToMapPointsKeepingItsData) {
     auto db = Open(path);
     ASSERT_NE(db, nullptr);
     ASSERT_OK(ApplyMigrations(*db, SchemaMigrations().first(4)));
-    ASSERT_OK(db->Exec(
-        "INSERT INTO maps VALUES (1, 'lab', 5);"
-        "INSERT INTO sessions (id, map_id, name, mode, width, height, fx, fy, cx, cy, k1, k2, p1,"
-        " p2, k3, depth_scale, started_ns, ended_ns, end_reason) VALUES (1, 1, 's', 1, 640, 480,"
-        " 525, 525, 319.5, 239.5, 0, 0, 0, 0, 0, 5000, 7, 9, 1);"
-        "INSERT INTO keyframes VALUES (1, 1, 4, 99, 1, 2, 3, 0, 0, 0, 1, 'jpeg', x'01', 'png',"
-        " x'02', 5000);"));
+    ASSERT_OK(db->Exec(kLabWithOneKeyframeSinceV4));
     EXPECT_EQ(*db->QueryInt64("SELECT COUNT(*) FROM sqlite_schema WHERE name = 'map_points'"), 0);
   }
   auto store = SqliteMapStore::Open(path, {});
@@ -280,12 +284,7 @@ TEST(MigrationsTest, Version5KeyframesUpgradeToCullable) {
     ASSERT_NE(db, nullptr);
     ASSERT_OK(ApplyMigrations(*db, SchemaMigrations().first(5)));
     ASSERT_OK(db->Exec(
-        "INSERT INTO maps VALUES (1, 'lab', 5);"
-        "INSERT INTO sessions (id, map_id, name, mode, width, height, fx, fy, cx, cy, k1, k2, p1,"
-        " p2, k3, depth_scale, started_ns, ended_ns, end_reason) VALUES (1, 1, 's', 1, 640, 480,"
-        " 525, 525, 319.5, 239.5, 0, 0, 0, 0, 0, 5000, 7, 9, 1);"
-        "INSERT INTO keyframes VALUES (1, 1, 4, 99, 1, 2, 3, 0, 0, 0, 1, 'jpeg', x'01', 'png',"
-        " x'02', 5000);"
+        std::string(kLabWithOneKeyframeSinceV4) +
         "INSERT INTO keyframes VALUES (2, 1, 8, 99, 1, 2, 3, 0, 0, 0, 1, 'jpeg', x'01', 'png',"
         " x'02', 5000);"));
   }
