@@ -28,6 +28,7 @@ enum class StatusCode : int {
   kInternal = 13,
   kUnavailable = 14,
   kDataLoss = 15,
+  kUnauthenticated = 16,
 };
 
 std::string_view StatusCodeName(StatusCode code);
@@ -56,6 +57,7 @@ Status UnknownError(std::string message);
 Status InvalidArgumentError(std::string message);
 Status DeadlineExceededError(std::string message);
 Status PermissionDeniedError(std::string message);
+Status UnauthenticatedError(std::string message);
 Status NotFoundError(std::string message);
 Status AlreadyExistsError(std::string message);
 Status ResourceExhaustedError(std::string message);

@@ -53,7 +53,14 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
         "change and delete every map",
         options.listen);
   }
+  std::unique_ptr<Authorizer> authorizer;
+  if (!options.auth_tokens_file.empty()) {
+    SEMMAP_ASSIGN_OR_RETURN(authorizer, Authorizer::Load(options.auth_tokens_file));
+    LogInfo("serving callers with one of {} tokens from {} (health stays open)",
+            authorizer->num_tokens(), options.auth_tokens_file);
+  }
   std::unique_ptr<SemmapServer> server(new SemmapServer());
+  server->authorizer_ = std::move(authorizer);
   server->options_ = options;
 
   std::error_code ec;
@@ -134,8 +141,9 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   ingest.open_reader = SqliteMapStore::Opener(db_path, sqlite);
   server->ingest_ = std::make_unique<IngestManager>(server->writer_.get(), std::move(ingest),
                                                     std::move(vocabulary), server->objects_.get());
-  server->service_ = std::make_unique<MapServiceImpl>(server->ingest_.get(), server->query_.get(),
-                                                      server->objects_.get());
+  server->service_ =
+      std::make_unique<MapServiceImpl>(server->ingest_.get(), server->query_.get(),
+                                       server->objects_.get(), server->authorizer_.get());
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -154,6 +162,13 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   }
   server->server_->GetHealthCheckService()->SetServingStatus(true);
   return server;
+}
+
+Status SemmapServer::ReloadAuthTokens() {
+  if (authorizer_ == nullptr) return FailedPreconditionError("no --auth-tokens file to re-read");
+  SEMMAP_RETURN_IF_ERROR(authorizer_->Reload());
+  LogInfo("re-read {}: {} tokens", options_.auth_tokens_file, authorizer_->num_tokens());
+  return OkStatus();
 }
 
 SemmapServer::~SemmapServer() {

@@ -25,6 +25,9 @@ class SemmapServer {
   // Idempotent; returns the first storage error.
   Status Shutdown();
 
+  // Re-reads --auth-tokens (SIGHUP); a file that no longer parses keeps the tokens in force.
+  Status ReloadAuthTokens();
+
   int port() const { return port_; }
   std::string address() const;
   MapQueryInterface& query() { return *query_; }
@@ -40,6 +43,7 @@ class SemmapServer {
   std::unique_ptr<MapQueryInterface> query_;
   std::unique_ptr<ObjectCatalog> objects_;
   std::unique_ptr<IngestManager> ingest_;
+  std::unique_ptr<Authorizer> authorizer_;  // before service_, which points to it
   std::unique_ptr<MapServiceImpl> service_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;

@@ -19,7 +19,8 @@ constexpr char kUsage[] =
     "\n"
     "The semmap map server: ingests camera streams over gRPC (semmap.v1.MapService), stores\n"
     "maps, sessions and keyframes in SQLite under --data-dir and answers map queries.\n"
-    "SIGINT/SIGTERM: stop accepting, store what was received, commit, exit 0.\n"
+    "SIGINT/SIGTERM: stop accepting, store what was received, commit, exit 0. SIGHUP: re-read\n"
+    "--auth-tokens.\n"
     "\n"
     "options:\n";
 
@@ -31,6 +32,7 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   options->tls_key_file = args.Get("tls-key", "");
   options->tls_client_ca_file = args.Get("tls-client-ca", "");
   options->allow_insecure = args.Has("allow-insecure");
+  options->auth_tokens_file = args.Get("auth-tokens", "");
   const std::string sync = args.Get("sqlite-sync", "full");
   if (sync != "full" && sync != "normal") {
     return semmap::InvalidArgumentError("--sqlite-sync must be full or normal");
@@ -149,6 +151,9 @@ int main(int argc, char** argv) {
   args.AddFlag("tls-key", "FILE", "the PEM private key of --tls-cert");
   args.AddFlag("tls-client-ca", "FILE",
                "mutual TLS: serve only clients whose certificate this PEM CA signed");
+  args.AddFlag("auth-tokens", "FILE",
+               "serve only callers with a bearer token from FILE, one 'token role [maps...]' "
+               "a line (roles read, write, admin); re-read on SIGHUP");
   args.AddSwitch("allow-insecure",
                  "serve plaintext on an address other than loopback (refused without it)");
   args.AddFlag("max-open-maps", "N",
@@ -242,6 +247,7 @@ int main(int argc, char** argv) {
   sigemptyset(&stop_signals);
   sigaddset(&stop_signals, SIGINT);
   sigaddset(&stop_signals, SIGTERM);
+  sigaddset(&stop_signals, SIGHUP);  // not a stop: re-reads --auth-tokens
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
   semmap::SetLogLevel(options.log_level);
@@ -255,7 +261,10 @@ int main(int argc, char** argv) {
   std::cout << "semmapd: listening on " << (*server)->address() << std::endl;
 
   int signal_number = 0;
-  sigwait(&stop_signals, &signal_number);
+  while (sigwait(&stop_signals, &signal_number) == 0 && signal_number == SIGHUP) {
+    const semmap::Status reloaded = (*server)->ReloadAuthTokens();
+    if (!reloaded.ok()) semmap::LogWarning("SIGHUP: {}", reloaded.ToString());
+  }
   semmap::LogInfo("received {}, shutting down", signal_number == SIGINT ? "SIGINT" : "SIGTERM");
   semmap::Status stopped = (*server)->Shutdown();
   if (!stopped.ok()) {

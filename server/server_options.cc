@@ -55,6 +55,7 @@ std::string ServerOptions::ToString() const {
       << (tls_cert_file.empty()        ? "off"
           : tls_client_ca_file.empty() ? "on"
                                        : "mutual")
+      << " auth=" << (auth_tokens_file.empty() ? "off" : "tokens")
       << " max_message_mb=" << max_message_mb << " shutdown_grace_s=" << shutdown_grace_s
       << " queue_capacity=" << ingest.queue_capacity
       << " max_frame_bytes=" << ingest.max_frame_bytes << " max_streams=" << ingest.max_streams

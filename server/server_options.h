@@ -28,6 +28,8 @@ struct ServerOptions {
   std::string tls_cert_file;
   std::string tls_key_file;
   std::string tls_client_ca_file;
+  // Bearer tokens and their roles (server/auth/token_table.h); empty: every caller served.
+  std::string auth_tokens_file;
   // Plaintext is refused on an address other than loopback unless this is set.
   bool allow_insecure = false;
   int shutdown_grace_s = 5;            // time in-flight streams get to finish at shutdown

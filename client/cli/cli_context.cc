@@ -1,5 +1,8 @@
 #include "client/cli/cli_context.h"
 
+#include <cstdlib>
+#include <fstream>
+
 namespace semmap::cli {
 
 void AddCommonFlags(ArgParser& parser, bool uses_server) {
@@ -9,10 +12,30 @@ void AddCommonFlags(ArgParser& parser, bool uses_server) {
     parser.AddFlag("tls-cert", "FILE",
                    "mutual TLS: this client's PEM certificate (with --tls-key)");
     parser.AddFlag("tls-key", "FILE", "mutual TLS: the PEM private key of --tls-cert");
+    parser.AddFlag("token-file", "FILE",
+                   "send the bearer token in FILE (semmapd --auth-tokens; default "
+                   "$SEMMAP_TOKEN)");
   }
   parser.AddSwitch("json", "print one JSON object to stdout");
   parser.AddSwitch("help", "print this help");
 }
+
+namespace {
+
+// The first line of `path`, surrounding white space removed.
+StatusOr<std::string> ReadTokenFile(const std::string& path) {
+  std::ifstream in(path);
+  std::string token;
+  if (!in || !std::getline(in, token)) {
+    return InvalidArgumentError("--token-file " + path + ": cannot be read");
+  }
+  const size_t first = token.find_first_not_of(" \t\r");
+  const size_t last = token.find_last_not_of(" \t\r");
+  if (first == std::string::npos) return InvalidArgumentError("--token-file " + path + ": empty");
+  return token.substr(first, last - first + 1);
+}
+
+}  // namespace
 
 Status ApplyCommonFlags(const ArgParser& parser, CliContext* context) {
   context->server = parser.Get("server", context->server);
@@ -21,6 +44,11 @@ Status ApplyCommonFlags(const ArgParser& parser, CliContext* context) {
     SEMMAP_ASSIGN_OR_RETURN(context->tls,
                             LoadClientTls(parser.Get("tls-ca", ""), parser.Get("tls-cert", ""),
                                           parser.Get("tls-key", "")));
+  }
+  if (parser.Has("token-file")) {
+    SEMMAP_ASSIGN_OR_RETURN(context->token, ReadTokenFile(parser.Get("token-file", "")));
+  } else if (const char* env = std::getenv("SEMMAP_TOKEN"); env != nullptr) {
+    context->token = env;
   }
   return OkStatus();
 }
@@ -60,6 +88,7 @@ MapClient MakeClient(const CliContext& context) {
   ClientOptions options;
   options.server = context.server;
   options.tls = context.tls;
+  options.token = context.token;
   return MapClient(options);
 }
 

@@ -20,6 +20,7 @@ constexpr int kExitUsage = 2;  // the command line was wrong
 struct CliContext {
   std::string server = "127.0.0.1:50051";
   std::optional<ClientTls> tls;  // --tls-ca / --tls-cert / --tls-key
+  std::string token;             // --token-file or $SEMMAP_TOKEN
   bool json = false;
 };
 

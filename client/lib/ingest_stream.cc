@@ -6,9 +6,11 @@ namespace semmap {
 
 StatusOr<std::unique_ptr<IngestStream>> IngestStream::Open(v1::MapService::Stub* stub,
                                                            const v1::IngestStart& start,
-                                                           AckCallback on_ack) {
+                                                           AckCallback on_ack,
+                                                           const std::string& token) {
   std::unique_ptr<IngestStream> stream(new IngestStream());
   stream->on_ack_ = std::move(on_ack);
+  if (!token.empty()) stream->context_.AddMetadata("authorization", "Bearer " + token);
   stream->stream_ = stub->Ingest(&stream->context_);
   v1::IngestRequest request;
   *request.mutable_start() = start;

@@ -21,9 +21,11 @@ class IngestStream {
   // Runs on the stream's reader thread for every ack, in seq order.
   using AckCallback = std::function<void(const v1::FrameAck&)>;
 
+  // `token`: sent as the bearer token when not empty.
   static StatusOr<std::unique_ptr<IngestStream>> Open(v1::MapService::Stub* stub,
                                                       const v1::IngestStart& start,
-                                                      AckCallback on_ack);
+                                                      AckCallback on_ack,
+                                                      const std::string& token = "");
   ~IngestStream();  // cancels the stream if Finish() was not called
 
   // Sends one frame (its bytes are moved, not copied). Fails with the stream's final status once

@@ -45,6 +45,11 @@ MapClient::MapClient(const ClientOptions& options) : options_(options) {
 
 void MapClient::SetDeadline(grpc::ClientContext* context) const {
   context->set_deadline(std::chrono::system_clock::now() + options_.query_timeout);
+  Authenticate(context);
+}
+
+void MapClient::Authenticate(grpc::ClientContext* context) const {
+  if (!options_.token.empty()) context->AddMetadata("authorization", "Bearer " + options_.token);
 }
 
 StatusOr<std::string> MapClient::Health(std::chrono::milliseconds timeout) {
@@ -242,6 +247,7 @@ StatusOr<RemovedCounts> MapClient::RemoveSession(const std::string& map,
                                                  const std::string& session) {
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + kRemovalTimeout);
+  Authenticate(&context);
   v1::RemoveSessionRequest request;
   request.set_map(map);
   request.set_session(session);
@@ -257,6 +263,7 @@ StatusOr<RemovedCounts> MapClient::RemoveSession(const std::string& map,
 StatusOr<RemovedCounts> MapClient::RemoveMap(const std::string& map) {
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + kRemovalTimeout);
+  Authenticate(&context);
   v1::RemoveMapRequest request;
   request.set_map(map);
   v1::RemoveMapResponse response;
@@ -270,7 +277,7 @@ StatusOr<RemovedCounts> MapClient::RemoveMap(const std::string& map) {
 
 StatusOr<std::unique_ptr<IngestStream>> MapClient::Ingest(const v1::IngestStart& start,
                                                           IngestStream::AckCallback on_ack) {
-  return IngestStream::Open(stub_.get(), start, std::move(on_ack));
+  return IngestStream::Open(stub_.get(), start, std::move(on_ack), options_.token);
 }
 
 }  // namespace semmap

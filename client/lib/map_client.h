@@ -32,6 +32,8 @@ StatusOr<ClientTls> LoadClientTls(const std::string& ca_file, const std::string&
 struct ClientOptions {
   std::string server = "127.0.0.1:50051";
   std::optional<ClientTls> tls;  // none: plaintext
+  // Sent as "authorization: Bearer <token>" with every call but Health (semmapd --auth-tokens).
+  std::string token;
   std::chrono::seconds query_timeout{30};
   int max_message_mb = 64;
 };
@@ -78,7 +80,10 @@ class MapClient final : public MapQueryInterface {
   v1::MapService::Stub& stub() { return *stub_; }
 
  private:
+  // The query deadline and Authenticate.
   void SetDeadline(grpc::ClientContext* context) const;
+  // The bearer token, when there is one.
+  void Authenticate(grpc::ClientContext* context) const;
 
   ClientOptions options_;
   std::shared_ptr<grpc::Channel> channel_;

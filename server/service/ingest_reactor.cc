@@ -4,6 +4,7 @@
 
 #include "server/serialization/ingest_conversions.h"
 #include "server/serialization/wire_parsing.h"
+#include "server/service/call_access.h"
 
 namespace semmap {
 
@@ -41,8 +42,23 @@ class IngestReactor::Sink final : public IngestSink {
   IngestReactor* reactor_ SEMMAP_GUARDED_BY(mutex_);
 };
 
-IngestReactor::IngestReactor(grpc::CallbackServerContext* context, IngestManager* manager)
-    : context_(context), sink_(std::make_shared<Sink>(this)) {
+IngestReactor::IngestReactor(grpc::CallbackServerContext* context, IngestManager* manager,
+                             const Authorizer* authorizer)
+    : context_(context),
+      authorizer_(authorizer),
+      authorization_(AuthorizationOf(*context)),
+      sink_(std::make_shared<Sink>(this)) {
+  // A caller without a write token gets no session (and takes no stream slot).
+  if (authorizer_ != nullptr) {
+    if (auto grant = authorizer_->Check(authorization_, Role::kWrite, nullptr); !grant.ok()) {
+      {
+        MutexLock lock(mutex_);
+        finish_called_ = true;
+      }
+      Finish(ToGrpcStatus(grant.status()));
+      return;
+    }
+  }
   // Open starts the session's threads, which may call the Sink (QueueRoom reads stream_ and
   // read_in_flight_) before this constructor finishes: the state is set under the lock.
   StatusOr<std::shared_ptr<IngestSessionHandle>> stream = manager->Open(sink_);
@@ -130,6 +146,13 @@ void IngestReactor::OnReadDone(bool ok) {
       ++messages_read_;
       IngestMessage message = ParseIngestRequest(request_, messages_read_);
       request_.Clear();
+      if (const auto* start = std::get_if<IngestStartRequest>(&message);
+          start != nullptr && authorizer_ != nullptr) {
+        if (auto grant = authorizer_->Check(authorization_, Role::kWrite, &start->map);
+            !grant.ok()) {
+          message = IngestInvalid{grant.status()};
+        }
+      }
       if (std::holds_alternative<IngestEnd>(message)) {
         end_held_ = true;  // confirmed by the half-close that must follow
       } else {

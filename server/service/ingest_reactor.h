@@ -17,12 +17,15 @@
 #include "common/thread_annotations.h"
 #include "core/pipeline/ingest_manager.h"
 #include "semmap/v1/service.grpc.pb.h"
+#include "server/auth/authorizer.h"
 
 namespace semmap {
 
 class IngestReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
  public:
-  IngestReactor(grpc::CallbackServerContext* context, IngestManager* manager);
+  // `authorizer` (may be null): the call needs a write token covering its start's map.
+  IngestReactor(grpc::CallbackServerContext* context, IngestManager* manager,
+                const Authorizer* authorizer = nullptr);
 
   void OnReadDone(bool ok) override;
   void OnWriteDone(bool ok) override;
@@ -55,6 +58,8 @@ class IngestReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer, grp
   static constexpr size_t kMaxPendingResponses = 64;
 
   grpc::CallbackServerContext* const context_;
+  const Authorizer* const authorizer_;
+  const std::string authorization_;  // the call's bearer token metadata
   const std::shared_ptr<Sink> sink_;
 
   // Lock order: the Sink's mutex (held while it calls the reactor) before this one.

@@ -7,6 +7,7 @@
 #include "server/serialization/object_conversions.h"
 #include "server/serialization/request_conversions.h"
 #include "server/serialization/wire_parsing.h"
+#include "server/service/call_access.h"
 #include "server/service/ingest_reactor.h"
 #include "server/service/message_stream_reactor.h"
 
@@ -43,10 +44,15 @@ CancelCheck ClientStillWaiting(grpc::CallbackServerContext* context) {
 template <typename Request, typename Response>
 grpc::ServerUnaryReactor* MapServiceImpl::Unary(grpc::CallbackServerContext* context, const Raw* in,
                                                 Raw* out) {
+  std::optional<TokenGrant> grant;
+  // The token first (role only): a caller without one learns nothing, not even parse errors.
+  Status status = Authorize(context, {AccessFor(Request{}).role, nullptr}, &grant);
   Request request;
-  Status status = ParseWire(*in, &request, "the request");
+  if (status.ok()) status = ParseWire(*in, &request, "the request");
+  if (status.ok()) status = Authorize(context, AccessFor(request), &grant);
   Response response;
   if (status.ok()) status = Answer(context, request, &response);
+  if (status.ok() && grant) RestrictToGrant(*grant, &response);
   if (status.ok()) status = SerializeWire(response, out);
   return FinishUnary(context, status);
 }
@@ -54,9 +60,14 @@ grpc::ServerUnaryReactor* MapServiceImpl::Unary(grpc::CallbackServerContext* con
 template <typename Request>
 grpc::ServerWriteReactor<grpc::ByteBuffer>* MapServiceImpl::Stream(
     grpc::CallbackServerContext* context, const Raw* in) {
+  std::optional<TokenGrant> grant;
+  Status checked = Authorize(context, {AccessFor(Request{}).role, nullptr}, &grant);
+  if (!checked.ok()) return new MessageStreamReactor(ToGrpcStatus(checked));
   Request request;
   const Status parsed = ParseWire(*in, &request, "the request");
   if (!parsed.ok()) return new MessageStreamReactor(ToGrpcStatus(parsed));
+  checked = Authorize(context, AccessFor(request), &grant);
+  if (!checked.ok()) return new MessageStreamReactor(ToGrpcStatus(checked));
   auto messages = Answer(context, request);
   if (!messages.ok()) return new MessageStreamReactor(ToGrpcStatus(messages.status()));
   return new MessageStreamReactor(*messages);
@@ -64,7 +75,15 @@ grpc::ServerWriteReactor<grpc::ByteBuffer>* MapServiceImpl::Stream(
 
 grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* MapServiceImpl::Ingest(
     grpc::CallbackServerContext* context) {
-  return new IngestReactor(context, ingest_);
+  return new IngestReactor(context, ingest_, authorizer_);
+}
+
+Status MapServiceImpl::Authorize(grpc::CallbackServerContext* context, const CallAccess& access,
+                                 std::optional<TokenGrant>* grant) const {
+  if (authorizer_ == nullptr) return OkStatus();
+  SEMMAP_ASSIGN_OR_RETURN(*grant,
+                          authorizer_->Check(AuthorizationOf(*context), access.role, access.map));
+  return OkStatus();
 }
 
 #define SEMMAP_UNARY(Method)                                                             \

@@ -9,12 +9,15 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <optional>
 #include <vector>
 
 #include "common/map_query.h"
 #include "core/objects/object_catalog.h"
 #include "core/pipeline/ingest_manager.h"
 #include "semmap/v1/service.grpc.pb.h"
+#include "server/auth/authorizer.h"
+#include "server/service/call_access.h"
 
 namespace semmap {
 
@@ -34,8 +37,10 @@ using MapServiceBase =
 
 class MapServiceImpl final : public MapServiceBase {
  public:
-  MapServiceImpl(IngestManager* ingest, MapQueryInterface* query, ObjectCatalog* objects)
-      : ingest_(ingest), query_(query), objects_(objects) {}
+  // `authorizer`: null serves every call (no --auth-tokens).
+  MapServiceImpl(IngestManager* ingest, MapQueryInterface* query, ObjectCatalog* objects,
+                 const Authorizer* authorizer = nullptr)
+      : ingest_(ingest), query_(query), objects_(objects), authorizer_(authorizer) {}
 
   using Raw = grpc::ByteBuffer;
   grpc::ServerBidiReactor<Raw, Raw>* Ingest(grpc::CallbackServerContext* context) override;
@@ -91,9 +96,15 @@ class MapServiceImpl final : public MapServiceBase {
   template <typename Request>
   grpc::ServerWriteReactor<Raw>* Stream(grpc::CallbackServerContext* context, const Raw* in);
 
+  // OK without an authorizer; else the call's token checked against `access` (its grant in
+  // *grant).
+  Status Authorize(grpc::CallbackServerContext* context, const CallAccess& access,
+                   std::optional<TokenGrant>* grant) const;
+
   IngestManager* ingest_;
   MapQueryInterface* query_;
   ObjectCatalog* objects_;
+  const Authorizer* authorizer_;
 };
 
 }  // namespace semmap
