@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "common/cancel_check.h"
 #include "common/map_types.h"
 #include "common/object_types.h"
 #include "common/status.h"
@@ -43,7 +44,10 @@ class MapQueryInterface {
   virtual StatusOr<std::vector<TrajectoryPose>> GetTrajectory(const std::string& map,
                                                               const std::string& session,
                                                               bool keyframes_only) = 0;
-  virtual StatusOr<ExportResult> ExportMap(const ExportRequest& request) = 0;
+  // A long export (a layer rebuilt from every keyframe) asks `cancel` as it goes and stops with
+  // its status (the server passes the call's cancellation and deadline).
+  virtual StatusOr<ExportResult> ExportMap(const ExportRequest& request,
+                                           const CancelCheck& cancel = {}) = 0;
 
   // Object types visible in `map` (global ones and the map's), or all when empty; no views.
   virtual StatusOr<std::vector<ObjectType>> ListObjectTypes(const std::string& map) = 0;

@@ -77,8 +77,11 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   // The writer opens first so migrations run before the reader connects.
   SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SqliteMapStore> write_store,
                           SqliteMapStore::Open(db_path, sqlite));
-  SEMMAP_ASSIGN_OR_RETURN(std::unique_ptr<SqliteMapStore> read_store,
-                          SqliteMapStore::Open(db_path, sqlite));
+  // One read connection per query worker (WAL: readers run beside each other and the writer).
+  std::vector<std::unique_ptr<MapStore>> read_stores;
+  for (size_t i = 0; i < options.calls.workers; ++i) {
+    SEMMAP_ASSIGN_OR_RETURN(read_stores.emplace_back(), SqliteMapStore::Open(db_path, sqlite));
+  }
   StorageWriter::Options writer_options;
   writer_options.queue_capacity = options.storage_queue_capacity;
   SEMMAP_ASSIGN_OR_RETURN(server->writer_,
@@ -99,7 +102,7 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
         "crashed (their acknowledged-durable frames are kept)",
         crashed);
   }
-  server->query_ = std::make_unique<StoreMapQuery>(std::move(read_store), options.ingest.layers);
+  server->query_ = std::make_unique<StoreMapQuery>(std::move(read_stores), options.ingest.layers);
   std::shared_ptr<const BowVocabulary> vocabulary;
   if (!options.vocabulary_path.empty()) {
     StatusOr<BowVocabulary> loaded = BowVocabulary::Load(options.vocabulary_path);
@@ -141,9 +144,19 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   ingest.open_reader = SqliteMapStore::Opener(db_path, sqlite);
   server->ingest_ = std::make_unique<IngestManager>(server->writer_.get(), std::move(ingest),
                                                     std::move(vocabulary), server->objects_.get());
-  server->service_ =
-      std::make_unique<MapServiceImpl>(server->ingest_.get(), server->query_.get(),
-                                       server->objects_.get(), server->authorizer_.get());
+  WorkerPoolOptions workers;
+  workers.threads = options.calls.workers;
+  workers.queue_capacity = options.calls.worker_queue;
+  workers.thread_name = "query-worker";
+  StatusOr<std::unique_ptr<WorkerPool>> pool = WorkerPool::Start(workers);
+  if (!pool.ok()) {
+    StopWriterAfterError(*server->writer_);
+    return pool.status().WithContext("starting the query workers");
+  }
+  server->workers_ = std::move(pool).value();
+  server->service_ = std::make_unique<MapServiceImpl>(
+      server->ingest_.get(), server->query_.get(), server->objects_.get(),
+      server->authorizer_.get(), server->workers_.get(), options.calls);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -189,9 +202,11 @@ Status SemmapServer::Shutdown() {
     server_->GetHealthCheckService()->SetServingStatus(false);
     // Streams store what they have queued and finish with UNAVAILABLE; then the server stops.
     ingest_->BeginShutdown();
+    // Returns once every call has finished: the workers run until then.
     server_->Shutdown(std::chrono::system_clock::now() +
                       std::chrono::seconds(options_.shutdown_grace_s));
   }
+  if (workers_) workers_->Stop();
   if (ingest_) ingest_->Join();
   Status status = writer_ ? writer_->Stop() : OkStatus();  // commits and checkpoints the WAL
   if (server_) server_->Wait();

@@ -33,6 +33,8 @@ class SemmapServer {
   MapQueryInterface& query() { return *query_; }
   // Lets tests stall storage to observe backpressure.
   StorageWriter& writer_for_testing() { return *writer_; }
+  // Lets tests see when a call has let go of its worker.
+  const WorkerPool& workers_for_testing() const { return *workers_; }
 
  private:
   SemmapServer() = default;
@@ -44,6 +46,7 @@ class SemmapServer {
   std::unique_ptr<ObjectCatalog> objects_;
   std::unique_ptr<IngestManager> ingest_;
   std::unique_ptr<Authorizer> authorizer_;  // before service_, which points to it
+  std::unique_ptr<WorkerPool> workers_;     // likewise
   std::unique_ptr<MapServiceImpl> service_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;

@@ -58,6 +58,26 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   }
   options->ingest.max_open_maps = static_cast<size_t>(open_maps);
   options->ingest.max_idle_maps = static_cast<size_t>(idle_maps);
+  semmap::CallLimits& calls = options->calls;
+  SEMMAP_ASSIGN_OR_RETURN(long long workers,
+                          args.GetInt("query-workers", static_cast<long long>(calls.workers)));
+  SEMMAP_ASSIGN_OR_RETURN(long long worker_queue,
+                          args.GetInt("query-queue", static_cast<long long>(calls.worker_queue)));
+  SEMMAP_ASSIGN_OR_RETURN(
+      long long exports,
+      args.GetInt("max-pending-exports", static_cast<long long>(calls.max_pending_exports)));
+  SEMMAP_ASSIGN_OR_RETURN(long long registrations,
+                          args.GetInt("max-registrations-per-minute",
+                                      static_cast<long long>(calls.max_registrations_per_minute)));
+  if (workers < 1 || worker_queue < 1 || exports < 1 || registrations < 0) {
+    return semmap::InvalidArgumentError(
+        "--query-workers, --query-queue and --max-pending-exports must be >= 1, "
+        "--max-registrations-per-minute >= 0");
+  }
+  calls.workers = static_cast<size_t>(workers);
+  calls.worker_queue = static_cast<size_t>(worker_queue);
+  calls.max_pending_exports = static_cast<size_t>(exports);
+  calls.max_registrations_per_minute = static_cast<size_t>(registrations);
   SEMMAP_ASSIGN_OR_RETURN(options->ingest.idle_timeout_s,
                           args.GetDouble("stream-idle-timeout-s", options->ingest.idle_timeout_s));
   SEMMAP_ASSIGN_OR_RETURN(long long max_mb, args.GetInt("max-message-mb", 64));
@@ -166,6 +186,17 @@ int main(int argc, char** argv) {
   args.AddFlag("sqlite-sync", "full|normal", "SQLite synchronous mode (default full)");
   args.AddFlag("queue-capacity", "N", "frames buffered per ingest stream (default 8)");
   args.AddFlag("max-message-mb", "MB", "largest accepted message / frame payload (default 64)");
+  args.AddFlag("query-workers", "N",
+               "threads answering queries, exports and object registrations, each with its own "
+               "database read connection (default 4)");
+  args.AddFlag("query-queue", "N",
+               "calls waiting for a query worker; one more is refused with RESOURCE_EXHAUSTED "
+               "(default 64)");
+  args.AddFlag("max-pending-exports", "N",
+               "exports running or waiting at once (default 2, at most --query-workers); one "
+               "more is refused with RESOURCE_EXHAUSTED");
+  args.AddFlag("max-registrations-per-minute", "N",
+               "object registrations admitted per minute (default 30, 0: no limit)");
   args.AddFlag(
       "max-streams", "N",
       "concurrent ingest streams; one more is refused with RESOURCE_EXHAUSTED (default 64)");

@@ -44,6 +44,7 @@ Status ServerOptions::Validate() const {
   if (storage_queue_capacity < 1 || storage_queue_capacity > 4096) {
     return InvalidArgumentError("storage queue capacity must be in 1..4096");
   }
+  SEMMAP_RETURN_IF_ERROR(calls.Validate());
   SEMMAP_RETURN_IF_ERROR(recognition.Validate().WithContext("object recognition"));
   return ingest.Validate();
 }
@@ -60,7 +61,10 @@ std::string ServerOptions::ToString() const {
       << " queue_capacity=" << ingest.queue_capacity
       << " max_frame_bytes=" << ingest.max_frame_bytes << " max_streams=" << ingest.max_streams
       << " max_open_maps=" << ingest.max_open_maps << " max_idle_maps=" << ingest.max_idle_maps
-      << " stream_idle_timeout_s=" << ingest.idle_timeout_s
+      << " stream_idle_timeout_s=" << ingest.idle_timeout_s << " query_workers=" << calls.workers
+      << " query_queue=" << calls.worker_queue
+      << " max_pending_exports=" << calls.max_pending_exports
+      << " max_registrations_per_minute=" << calls.max_registrations_per_minute
       << " keyframe_min_motion=" << ingest.keyframes.min_motion
       << " keyframe_rotation_weight=" << ingest.keyframes.rotation_weight
       << " vocabulary=" << (vocabulary_path.empty() ? "none" : vocabulary_path)

@@ -7,6 +7,7 @@
 #include "common/status.h"
 #include "core/pipeline/ingest_options.h"
 #include "core/recognition/object_model.h"
+#include "server/service/call_limits.h"
 
 namespace semmap {
 
@@ -34,6 +35,7 @@ struct ServerOptions {
   bool allow_insecure = false;
   int shutdown_grace_s = 5;            // time in-flight streams get to finish at shutdown
   size_t storage_queue_capacity = 64;  // write batches waiting for the storage writer
+  CallLimits calls;                    // query workers and the limits on costly calls
   IngestOptions ingest;
   // Place-recognition vocabulary of the SLAM back end. Empty: none (loops by pose proximity
   // only). A path that cannot be loaded fails the start unless vocabulary_optional.

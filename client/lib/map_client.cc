@@ -1,10 +1,14 @@
 #include "client/lib/map_client.h"
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <thread>
 
 #include "common/pem_file.h"
 #include "common/sha256.h"
+#include "common/thread_annotations.h"
+#include "common/thread_launcher.h"
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "server/serialization/conversions.h"
 #include "server/serialization/object_conversions.h"
@@ -122,9 +126,42 @@ StatusOr<std::vector<TrajectoryPose>> MapClient::GetTrajectory(const std::string
   return poses;
 }
 
-StatusOr<ExportResult> MapClient::ExportMap(const ExportRequest& request) {
+StatusOr<ExportResult> MapClient::ExportMap(const ExportRequest& request,
+                                            const CancelCheck& cancel) {
   grpc::ClientContext context;
   SetDeadline(&context);
+  // The server builds the export before its first message: the watcher cancels the call
+  // while this thread waits in Read().
+  std::atomic<bool> done{false};
+  Status cancelled = OkStatus();
+  Mutex cancelled_mutex;
+  std::thread watcher;
+  if (cancel) {
+    SEMMAP_ASSIGN_OR_RETURN(watcher, LaunchThread([&] {
+                              while (!done.load()) {
+                                Status status = cancel();
+                                if (!status.ok()) {
+                                  {
+                                    MutexLock lock(cancelled_mutex);
+                                    cancelled = std::move(status);
+                                  }
+                                  context.TryCancel();
+                                  return;
+                                }
+                                std::this_thread::sleep_for(std::chrono::milliseconds(10));
+                              }
+                            }));
+  }
+  StatusOr<ExportResult> result = ReadExport(&context, request);
+  done.store(true);
+  if (watcher.joinable()) watcher.join();
+  MutexLock lock(cancelled_mutex);
+  if (!cancelled.ok()) return cancelled;
+  return result;
+}
+
+StatusOr<ExportResult> MapClient::ReadExport(grpc::ClientContext* context,
+                                             const ExportRequest& request) {
   v1::ExportMapRequest wire;
   wire.set_map(request.map);
   wire.set_format(request.format);
@@ -133,7 +170,7 @@ StatusOr<ExportResult> MapClient::ExportMap(const ExportRequest& request) {
   wire.set_voxel(request.voxel_m);
   wire.set_view(request.view);
   wire.set_width(static_cast<uint32_t>(std::max(request.width_px, 0)));
-  auto reader = stub_->ExportMap(&context, wire);
+  auto reader = stub_->ExportMap(context, wire);
   ExportResult result;
   Sha256Hasher hasher;
   std::optional<v1::ExportTrailer> trailer;

@@ -53,7 +53,9 @@ class MapClient final : public MapQueryInterface {
                                                       const std::string& session,
                                                       bool keyframes_only) override;
   // Reassembles the chunks and checks the trailer's SHA-256 (DATA_LOSS on mismatch).
-  StatusOr<ExportResult> ExportMap(const ExportRequest& request) override;
+  // `cancel` is polled every 10 ms while the export runs; its status cancels the call.
+  StatusOr<ExportResult> ExportMap(const ExportRequest& request,
+                                   const CancelCheck& cancel = {}) override;
 
   StatusOr<std::vector<ObjectType>> ListObjectTypes(const std::string& map) override;
   StatusOr<std::vector<ObjectInstance>> FindObjects(const std::string& label,
@@ -84,6 +86,8 @@ class MapClient final : public MapQueryInterface {
   void SetDeadline(grpc::ClientContext* context) const;
   // The bearer token, when there is one.
   void Authenticate(grpc::ClientContext* context) const;
+  // The export call itself: reads the stream and checks the trailer.
+  StatusOr<ExportResult> ReadExport(grpc::ClientContext* context, const ExportRequest& request);
 
   ClientOptions options_;
   std::shared_ptr<grpc::Channel> channel_;

@@ -393,9 +393,10 @@ StatusOr<OccupancyMap> OccupancyMap::Create(const OccupancyMapOptions& options) 
 
 StatusOr<OccupancyMap> OccupancyMap::Build(
     const std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>>& keyframes,
-    const OccupancyMapOptions& options) {
+    const OccupancyMapOptions& options, const CancelCheck& cancel) {
   SEMMAP_ASSIGN_OR_RETURN(OccupancyMap map, Create(options));
   for (size_t i = 0; i < keyframes.size(); ++i) {
+    SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
     if (keyframes[i].first == nullptr) {
       return InvalidArgumentError("occupancy map build: keyframe " + std::to_string(i) +
                                   " has no cloud");

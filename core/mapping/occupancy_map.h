@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "common/camera.h"
+#include "common/cancel_check.h"
 #include "common/status.h"
 #include "core/sensor/image_decoding.h"
 
@@ -90,10 +91,11 @@ class OccupancyMap {
   // An empty map. INVALID_ARGUMENT for bad options.
   static StatusOr<OccupancyMap> Create(const OccupancyMapOptions& options);
   // A fresh map from keyframes at the given poses, inserted in order (the rebuild after a
-  // loop closure). INVALID_ARGUMENT for bad options, a null cloud or a non-finite pose.
+  // loop closure). INVALID_ARGUMENT for bad options, a null cloud or a non-finite pose;
+  // `cancel`'s status when it answers one (asked before each keyframe).
   static StatusOr<OccupancyMap> Build(
       const std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>>& keyframes,
-      const OccupancyMapOptions& options);
+      const OccupancyMapOptions& options, const CancelCheck& cancel = {});
 
   OccupancyMap(OccupancyMap&&) noexcept;
   OccupancyMap& operator=(OccupancyMap&&) noexcept;

@@ -103,8 +103,9 @@ Status PointCloudMapOptions::Validate() const {
 
 StatusOr<PointCloudMap> PointCloudMap::Build(
     const std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>>& keyframes,
-    const PointCloudMapOptions& options) {
+    const PointCloudMapOptions& options, const CancelCheck& cancel) {
   SEMMAP_RETURN_IF_ERROR(options.Validate());
+  SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
   for (size_t i = 0; i < keyframes.size(); ++i) {
     const auto& [cloud, T_world_keyframe] = keyframes[i];
     if (cloud == nullptr)
@@ -186,6 +187,7 @@ StatusOr<PointCloudMap> PointCloudMap::Build(
     const int64_t passes = std::clamp<int64_t>(pieces_by_points, 1, slabs);
     const int64_t per_pass = (slabs + passes - 1) / passes;
     for (int64_t begin = 0; begin < slabs; begin += per_pass) {
+      SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
       std::map<int64_t, PclCloud::Ptr> pieces;
       for_each_world_point([&](const Eigen::Vector3f& p, const std::array<uint8_t, 3>& bgr) {
         const int64_t slab = (LeafIndex(p.x(), inverse_leaf) - first) / slab_leaves;

@@ -26,6 +26,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/cancel_check.h"
 #include "common/status.h"
 #include "core/mapping/cloud_point.h"
 #include "core/mapping/occupancy_map.h"
@@ -51,10 +52,11 @@ class PointCloudMap {
   // point per occupied leaf, at the mean of its points, with the mean colour per channel
   // (truncated to an integer, as PCL does). Non-finite points are dropped. INVALID_ARGUMENT
   // for bad options, a null cloud, a colour count that differs from the point count or a
-  // non-finite pose; INTERNAL if PCL throws; RESOURCE_EXHAUSTED when out of memory.
+  // non-finite pose; INTERNAL if PCL throws; RESOURCE_EXHAUSTED when out of memory; `cancel`'s
+  // status when it answers one (asked before each pass over the points).
   static StatusOr<PointCloudMap> Build(
       const std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>>& keyframes,
-      const PointCloudMapOptions& options);
+      const PointCloudMapOptions& options, const CancelCheck& cancel = {});
 
   // A map read back from its stored form (ReadCloudPcd): the points as they are, no filtering.
   static PointCloudMap FromPoints(std::vector<CloudPoint> points,

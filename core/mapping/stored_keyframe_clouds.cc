@@ -59,11 +59,9 @@ StatusOr<std::optional<Eigen::Vector3d>> FirstKeyframeLayerOrigin(MapStore& stor
   return std::optional<Eigen::Vector3d>();
 }
 
-StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(MapStore& store,
-                                                              const std::string& map_name,
-                                                              const std::string& session_name,
-                                                              const OccupancyMapOptions& options,
-                                                              size_t* damaged) {
+StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(
+    MapStore& store, const std::string& map_name, const std::string& session_name,
+    const OccupancyMapOptions& options, size_t* damaged, const CancelCheck& cancel) {
   SEMMAP_ASSIGN_OR_RETURN(std::vector<SessionInfo> sessions, store.ListSessions(map_name));
   std::vector<StoredKeyframeCloud> out;
   bool matched = session_name.empty();
@@ -74,6 +72,7 @@ StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(MapStore& store,
                             store.ListKeyframes(session.id, /*with_images=*/true));
     for (const KeyframeRecord& record : keyframes) {
       if (record.depth.empty()) continue;
+      SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
       StatusOr<KeyframeCloud> cloud = KeyframeCloudFromRecord(record, session.camera, options);
       if (!cloud.ok() && damaged != nullptr && cloud.status().code() == StatusCode::kDataLoss) {
         ++*damaged;

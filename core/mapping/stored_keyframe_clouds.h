@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "common/cancel_check.h"
 #include "common/map_types.h"
 #include "common/status.h"
 #include "core/mapping/occupancy_map.h"
@@ -42,11 +43,10 @@ StatusOr<std::optional<Eigen::Vector3d>> FirstKeyframeLayerOrigin(MapStore& stor
 // Every keyframe with depth of the map's sessions (only `session_name` when not empty; NOT_FOUND
 // for an unknown one), in session then seq order. Keyframes without depth are skipped. A
 // keyframe whose stored images do not decode is DATA_LOSS, or, with `damaged` given, skipped and
-// counted there (a restore must not fail a map for one damaged keyframe).
-StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(MapStore& store,
-                                                              const std::string& map_name,
-                                                              const std::string& session_name,
-                                                              const OccupancyMapOptions& options,
-                                                              size_t* damaged = nullptr);
+// counted there (a restore must not fail a map for one damaged keyframe). `cancel` is asked
+// before each keyframe is decoded.
+StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(
+    MapStore& store, const std::string& map_name, const std::string& session_name,
+    const OccupancyMapOptions& options, size_t* damaged = nullptr, const CancelCheck& cancel = {});
 
 }  // namespace semmap

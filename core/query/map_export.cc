@@ -78,10 +78,10 @@ StatusOr<std::string> ExportJson(MapStore& store, const ExportRequest& request) 
 }  // namespace
 
 StatusOr<ExportResult> BuildExport(MapStore& store, const ExportRequest& request,
-                                   const MapLayerOptions& layers) {
+                                   const MapLayerOptions& layers, const CancelCheck& cancel) {
   if (request.map.empty()) return InvalidArgumentError("export needs a map name");
   if (IsLayerExportFormat(request.format)) {
-    SEMMAP_ASSIGN_OR_RETURN(ExportResult result, BuildLayerExport(store, request, layers));
+    SEMMAP_ASSIGN_OR_RETURN(ExportResult result, BuildLayerExport(store, request, layers, cancel));
     result.sha256_hex = ToHex(Sha256(result.bytes));
     return result;
   }

@@ -48,22 +48,25 @@ bool Rebuilds(const ExportRequest& request) {
 }
 
 StatusOr<std::vector<StoredKeyframeCloud>> LoadClouds(MapStore& store, const ExportRequest& request,
-                                                      const OccupancyMapOptions& options) {
-  SEMMAP_ASSIGN_OR_RETURN(std::vector<StoredKeyframeCloud> keyframes,
-                          LoadKeyframeClouds(store, request.map, request.session, options));
+                                                      const OccupancyMapOptions& options,
+                                                      const CancelCheck& cancel) {
+  SEMMAP_ASSIGN_OR_RETURN(
+      std::vector<StoredKeyframeCloud> keyframes,
+      LoadKeyframeClouds(store, request.map, request.session, options, nullptr, cancel));
   if (keyframes.empty()) return NoLayersError(request.map);
   return keyframes;
 }
 
 StatusOr<OccupancyMap> Occupancy(MapStore& store, const MapInfo& map, const ExportRequest& request,
-                                 const MapLayerOptions& layers, const Eigen::Vector3d& origin) {
+                                 const MapLayerOptions& layers, const Eigen::Vector3d& origin,
+                                 const CancelCheck& cancel) {
   if (Rebuilds(request)) {
     OccupancyMapOptions options = layers.occupancy;
     if (request.voxel_m > 0) options.resolution_m = request.voxel_m;
     SEMMAP_RETURN_IF_ERROR(options.Validate().WithContext("--voxel"));
     SEMMAP_ASSIGN_OR_RETURN(std::vector<StoredKeyframeCloud> keyframes,
-                            LoadClouds(store, request, options));
-    return OccupancyMap::Build(Placed(keyframes, origin, options), options);
+                            LoadClouds(store, request, options, cancel));
+    return OccupancyMap::Build(Placed(keyframes, origin, options), options, cancel);
   }
   StatusOr<MapBlob> blob = store.GetBlob(map.id, kOccupancyBlobKind);
   if (!blob.ok()) {
@@ -80,14 +83,15 @@ StatusOr<OccupancyMap> Occupancy(MapStore& store, const MapInfo& map, const Expo
 }
 
 StatusOr<PointCloudMap> Cloud(MapStore& store, const MapInfo& map, const ExportRequest& request,
-                              const MapLayerOptions& layers, const Eigen::Vector3d& origin) {
+                              const MapLayerOptions& layers, const Eigen::Vector3d& origin,
+                              const CancelCheck& cancel) {
   PointCloudMapOptions options = layers.cloud;
   if (request.voxel_m > 0) options.leaf_size_m = request.voxel_m;
   SEMMAP_RETURN_IF_ERROR(options.Validate().WithContext("--voxel"));
   if (!request.session.empty()) {
     SEMMAP_ASSIGN_OR_RETURN(std::vector<StoredKeyframeCloud> keyframes,
-                            LoadClouds(store, request, layers.occupancy));
-    return PointCloudMap::Build(Placed(keyframes, origin, layers.occupancy), options);
+                            LoadClouds(store, request, layers.occupancy, cancel));
+    return PointCloudMap::Build(Placed(keyframes, origin, layers.occupancy), options, cancel);
   }
   StatusOr<MapBlob> blob = store.GetBlob(map.id, kCloudBlobKind);
   if (!blob.ok()) {
@@ -107,7 +111,7 @@ StatusOr<PointCloudMap> Cloud(MapStore& store, const MapInfo& map, const ExportR
     merged.points.emplace_back(p.x, p.y, p.z);
     merged.colours.push_back({p.b, p.g, p.r});
   }
-  return PointCloudMap::Build({{&merged, Eigen::Isometry3d::Identity()}}, options);
+  return PointCloudMap::Build({{&merged, Eigen::Isometry3d::Identity()}}, options, cancel);
 }
 
 struct MapObjects {
@@ -156,7 +160,8 @@ bool Drawable(const Eigen::Vector3d& p_layer) {
 }
 
 StatusOr<std::string> RenderPng(MapStore& store, const MapInfo& map, const ExportRequest& request,
-                                const MapLayerOptions& layers, const Eigen::Vector3d& origin) {
+                                const MapLayerOptions& layers, const Eigen::Vector3d& origin,
+                                const CancelCheck& cancel) {
   MapRenderOptions options;
   if (request.width_px > 0) options.long_side_px = request.width_px;
   if (request.view == "oblique") {
@@ -169,7 +174,7 @@ StatusOr<std::string> RenderPng(MapStore& store, const MapInfo& map, const Expor
   MapRenderInput input;
   input.title = "map '" + map.name + "'" +
                 (request.session.empty() ? "" : " session '" + request.session + "'");
-  StatusOr<PointCloudMap> cloud = Cloud(store, map, request, layers, origin);
+  StatusOr<PointCloudMap> cloud = Cloud(store, map, request, layers, origin, cancel);
   // A map without layers (no depth) still shows its trajectories.
   if (!cloud.ok() && cloud.status().code() != StatusCode::kNotFound) return cloud.status();
   if (cloud.ok()) input.cloud = cloud->points();
@@ -238,6 +243,7 @@ StatusOr<std::string> RenderPng(MapStore& store, const MapInfo& map, const Expor
   if (undrawable > 0) {
     input.title += "; " + std::to_string(undrawable) + " poses beyond 1000 km not drawn";
   }
+  SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
   return RenderMapPng(input, options);
 }
 
@@ -264,7 +270,7 @@ bool IsLayerExportFormat(const std::string& format) {
 }
 
 StatusOr<ExportResult> BuildLayerExport(MapStore& store, const ExportRequest& request,
-                                        const MapLayerOptions& layers) {
+                                        const MapLayerOptions& layers, const CancelCheck& cancel) {
   if (!std::isfinite(request.voxel_m) || request.voxel_m < 0) {
     return InvalidArgumentError("voxel size must be a finite number >= 0");
   }
@@ -279,12 +285,14 @@ StatusOr<ExportResult> BuildLayerExport(MapStore& store, const ExportRequest& re
   result.layer_origin = origin;
   if (request.format == "ot" || request.format == "bt") {
     result.media_type = "application/octet-stream";
-    SEMMAP_ASSIGN_OR_RETURN(OccupancyMap occupancy, Occupancy(store, map, request, layers, origin));
+    SEMMAP_ASSIGN_OR_RETURN(OccupancyMap occupancy,
+                            Occupancy(store, map, request, layers, origin, cancel));
     SEMMAP_ASSIGN_OR_RETURN(
         result.bytes, request.format == "ot" ? occupancy.SerializeOt() : occupancy.SerializeBt());
   } else if (request.format == "ply" || request.format == "pcd") {
     result.media_type = request.format == "ply" ? "application/x-ply" : "application/x-pcd";
-    SEMMAP_ASSIGN_OR_RETURN(PointCloudMap cloud, Cloud(store, map, request, layers, origin));
+    SEMMAP_ASSIGN_OR_RETURN(PointCloudMap cloud,
+                            Cloud(store, map, request, layers, origin, cancel));
     if (request.format == "ply") {
       // The map's objects appear as boxes in their colours (PCD stays the plain cloud).
       SEMMAP_ASSIGN_OR_RETURN(MapObjects objects, LoadObjects(store, map));
@@ -304,7 +312,7 @@ StatusOr<ExportResult> BuildLayerExport(MapStore& store, const ExportRequest& re
     result.bytes = WithOriginComment(std::move(result.bytes), request.format, origin);
   } else if (request.format == "png") {
     result.media_type = "image/png";
-    SEMMAP_ASSIGN_OR_RETURN(result.bytes, RenderPng(store, map, request, layers, origin));
+    SEMMAP_ASSIGN_OR_RETURN(result.bytes, RenderPng(store, map, request, layers, origin, cancel));
   } else {
     return InvalidArgumentError("not a layer export format: '" + request.format + "'");
   }

@@ -4,6 +4,7 @@
 // layer from the stored keyframes at their corrected poses.
 #pragma once
 
+#include "common/cancel_check.h"
 #include "common/map_query.h"
 #include "core/mapping/map_layer_builder.h"
 #include "storage/map_store.h"
@@ -13,8 +14,10 @@ namespace semmap {
 // True for the formats handled here.
 bool IsLayerExportFormat(const std::string& format);
 
-// `layers` gives the resolutions a rebuild uses when the request names none.
+// `layers` gives the resolutions a rebuild uses when the request names none; `cancel` is asked
+// before each keyframe a rebuild decodes or inserts.
 StatusOr<ExportResult> BuildLayerExport(MapStore& store, const ExportRequest& request,
-                                        const MapLayerOptions& layers);
+                                        const MapLayerOptions& layers,
+                                        const CancelCheck& cancel = {});
 
 }  // namespace semmap

@@ -7,15 +7,49 @@
 #include "core/query/map_export.h"
 
 namespace semmap {
+namespace {
+
+std::vector<std::unique_ptr<MapStore>> OneStore(std::unique_ptr<MapStore> store) {
+  std::vector<std::unique_ptr<MapStore>> stores;
+  stores.push_back(std::move(store));
+  return stores;
+}
+
+}  // namespace
+
+StoreMapQuery::StoreMapQuery(std::unique_ptr<MapStore> store, MapLayerOptions layers)
+    : StoreMapQuery(OneStore(std::move(store)), layers) {}
+
+StoreMapQuery::StoreMapQuery(std::vector<std::unique_ptr<MapStore>> stores, MapLayerOptions layers)
+    : stores_(std::move(stores)), layers_(layers) {
+  MutexLock lock(mutex_);
+  for (const std::unique_ptr<MapStore>& store : stores_) idle_.push_back(store.get());
+}
+
+StoreMapQuery::Lease StoreMapQuery::Acquire() {
+  MutexLock lock(mutex_);
+  while (idle_.empty()) returned_.wait(lock);
+  MapStore* store = idle_.back();
+  idle_.pop_back();
+  return {this, store};
+}
+
+void StoreMapQuery::Return(MapStore* store) {
+  {
+    MutexLock lock(mutex_);
+    idle_.push_back(store);
+  }
+  returned_.notify_one();
+}
 
 StatusOr<std::vector<MapInfo>> StoreMapQuery::ListMaps() {
-  MutexLock lock(mutex_);
-  return store_->ListMaps();
+  const Lease store = Acquire();
+  return store->ListMaps();
 }
 
 StatusOr<std::vector<SessionInfo>> StoreMapQuery::ListSessions(const std::string& map) {
-  MutexLock lock(mutex_);
-  return store_->ListSessions(map);
+  const Lease store = Acquire();
+  return store->ListSessions(map);
 }
 
 StatusOr<std::vector<TrajectoryPose>> StoreMapQuery::GetTrajectory(const std::string& map,
@@ -24,26 +58,27 @@ StatusOr<std::vector<TrajectoryPose>> StoreMapQuery::GetTrajectory(const std::st
   if (map.empty() || session.empty()) {
     return InvalidArgumentError("a trajectory query needs both a map and a session name");
   }
-  MutexLock lock(mutex_);
-  SEMMAP_ASSIGN_OR_RETURN(SessionInfo info, store_->GetSession(map, session));
-  return store_->GetTrajectory(info.id, keyframes_only);
+  const Lease store = Acquire();
+  SEMMAP_ASSIGN_OR_RETURN(SessionInfo info, store->GetSession(map, session));
+  return store->GetTrajectory(info.id, keyframes_only);
 }
 
-StatusOr<ExportResult> StoreMapQuery::ExportMap(const ExportRequest& request) {
-  MutexLock lock(mutex_);
-  return BuildExport(*store_, request, layers_);
+StatusOr<ExportResult> StoreMapQuery::ExportMap(const ExportRequest& request,
+                                                const CancelCheck& cancel) {
+  const Lease store = Acquire();
+  return BuildExport(*store, request, layers_, cancel);
 }
 
 StatusOr<std::vector<ObjectType>> StoreMapQuery::ListObjectTypes(const std::string& map) {
-  MutexLock lock(mutex_);
+  const Lease store = Acquire();
   std::optional<int64_t> map_id;
   if (!map.empty()) {
-    SEMMAP_ASSIGN_OR_RETURN(MapInfo info, store_->GetMap(map));
+    SEMMAP_ASSIGN_OR_RETURN(MapInfo info, store->GetMap(map));
     map_id = info.id;
   }
   // With views for their count; the photos and features stay on the server.
   SEMMAP_ASSIGN_OR_RETURN(std::vector<ObjectType> types,
-                          store_->ListObjectTypes(map_id, /*with_views=*/true));
+                          store->ListObjectTypes(map_id, /*with_views=*/true));
   for (ObjectType& type : types) {
     for (ObjectView& view : type.views) {
       view.image = {};
@@ -55,13 +90,13 @@ StatusOr<std::vector<ObjectType>> StoreMapQuery::ListObjectTypes(const std::stri
 
 StatusOr<std::vector<ObjectInstance>> StoreMapQuery::FindObjects(const std::string& label,
                                                                  const std::string& map) {
-  MutexLock lock(mutex_);
+  const Lease store = Acquire();
   std::optional<int64_t> map_id;
   if (!map.empty()) {
-    SEMMAP_ASSIGN_OR_RETURN(MapInfo info, store_->GetMap(map));
+    SEMMAP_ASSIGN_OR_RETURN(MapInfo info, store->GetMap(map));
     map_id = info.id;
   }
-  return store_->FindObjectInstances(map_id, label);
+  return store->FindObjectInstances(map_id, label);
 }
 
 StatusOr<std::vector<ObjectInstance>> StoreMapQuery::ObjectsNear(const std::string& map,
@@ -71,20 +106,20 @@ StatusOr<std::vector<ObjectInstance>> StoreMapQuery::ObjectsNear(const std::stri
   if (!point.allFinite() || !std::isfinite(radius_m) || radius_m <= 0) {
     return InvalidArgumentError("a near query needs a finite point and a radius > 0");
   }
-  MutexLock lock(mutex_);
+  const Lease store = Acquire();
   MapInfo info;
   if (map.empty()) {
     // Coordinates belong to one map's frame: without a name, only an unambiguous one will do.
-    SEMMAP_ASSIGN_OR_RETURN(std::vector<MapInfo> maps, store_->ListMaps());
+    SEMMAP_ASSIGN_OR_RETURN(std::vector<MapInfo> maps, store->ListMaps());
     if (maps.size() != 1) {
       return InvalidArgumentError("the server has " + std::to_string(maps.size()) +
                                   " maps; name the one whose frame the point is in");
     }
     info = maps.front();
   } else {
-    SEMMAP_ASSIGN_OR_RETURN(info, store_->GetMap(map));
+    SEMMAP_ASSIGN_OR_RETURN(info, store->GetMap(map));
   }
-  return store_->ObjectInstancesNear(info.id, point, radius_m, label);
+  return store->ObjectInstancesNear(info.id, point, radius_m, label);
 }
 
 }  // namespace semmap

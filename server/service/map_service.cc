@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <string>
+#include <type_traits>
 
 #include "server/serialization/conversions.h"
 #include "server/serialization/object_conversions.h"
@@ -41,6 +43,26 @@ CancelCheck ClientStillWaiting(grpc::CallbackServerContext* context) {
 
 }  // namespace
 
+template <typename Request>
+Status MapServiceImpl::Admit(const Request&) {
+  if constexpr (std::is_same_v<Request, v1::RegisterObjectRequest>) {
+    if (!registrations_.TryAcquire()) {
+      return ResourceExhaustedError(
+          "object registrations are limited to " + std::to_string(registrations_.max_events()) +
+          " per minute on this server (--max-registrations-per-minute); retry in a minute");
+    }
+  }
+  return OkStatus();
+}
+
+Status MapServiceImpl::RunOnWorker(std::function<void()> work) {
+  if (workers_ == nullptr) {
+    work();
+    return OkStatus();
+  }
+  return workers_->Submit(std::move(work));
+}
+
 template <typename Request, typename Response>
 grpc::ServerUnaryReactor* MapServiceImpl::Unary(grpc::CallbackServerContext* context, const Raw* in,
                                                 Raw* out) {
@@ -50,11 +72,21 @@ grpc::ServerUnaryReactor* MapServiceImpl::Unary(grpc::CallbackServerContext* con
   Request request;
   if (status.ok()) status = ParseWire(*in, &request, "the request");
   if (status.ok()) status = Authorize(context, AccessFor(request), &grant);
-  Response response;
-  if (status.ok()) status = Answer(context, request, &response);
-  if (status.ok() && grant) RestrictToGrant(*grant, &response);
-  if (status.ok()) status = SerializeWire(response, out);
-  return FinishUnary(context, status);
+  if (status.ok()) status = Admit(request);
+  if (!status.ok()) return FinishUnary(context, status);
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  const Status queued = RunOnWorker(
+      [this, context, reactor, out, request = std::move(request), grant = std::move(grant)] {
+        // A call given up on while it waited does no work.
+        Status answered = ClientStillWaiting(context)();
+        Response response;
+        if (answered.ok()) answered = Answer(context, request, &response);
+        if (answered.ok() && grant) RestrictToGrant(*grant, &response);
+        if (answered.ok()) answered = SerializeWire(response, out);
+        reactor->Finish(ToGrpcStatus(answered));
+      });
+  if (!queued.ok()) reactor->Finish(ToGrpcStatus(queued));
+  return reactor;
 }
 
 template <typename Request>
@@ -68,9 +100,36 @@ grpc::ServerWriteReactor<grpc::ByteBuffer>* MapServiceImpl::Stream(
   if (!parsed.ok()) return new MessageStreamReactor(ToGrpcStatus(parsed));
   checked = Authorize(context, AccessFor(request), &grant);
   if (!checked.ok()) return new MessageStreamReactor(ToGrpcStatus(checked));
-  auto messages = Answer(context, request);
-  if (!messages.ok()) return new MessageStreamReactor(ToGrpcStatus(messages.status()));
-  return new MessageStreamReactor(*messages);
+  // Exports hold a worker and a read connection for seconds: only a few at once, so queries
+  // always find both.
+  constexpr bool kExport = std::is_same_v<Request, v1::ExportMapRequest>;
+  if (kExport && pending_exports_.fetch_add(1) >= limits_.max_pending_exports) {
+    pending_exports_.fetch_sub(1);
+    return new MessageStreamReactor(ToGrpcStatus(ResourceExhaustedError(
+        std::to_string(limits_.max_pending_exports) +
+        " exports are already running or waiting on this server (--max-pending-exports); retry "
+        "when one has finished")));
+  }
+  auto* reactor = new MessageStreamReactor();
+  const Status queued = RunOnWorker([this, context, reactor, request = std::move(request)] {
+    Status still_waiting = ClientStillWaiting(context)();
+    if (still_waiting.ok()) {
+      auto messages = Answer(context, request);
+      if (messages.ok()) {
+        reactor->Send(*messages);
+      } else {
+        reactor->Fail(ToGrpcStatus(messages.status()));
+      }
+    } else {
+      reactor->Fail(ToGrpcStatus(still_waiting));
+    }
+    if (kExport) pending_exports_.fetch_sub(1);
+  });
+  if (!queued.ok()) {
+    if (kExport) pending_exports_.fetch_sub(1);
+    reactor->Fail(ToGrpcStatus(queued));
+  }
+  return reactor;
 }
 
 grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* MapServiceImpl::Ingest(
@@ -140,8 +199,9 @@ StatusOr<std::vector<v1::GetTrajectoryResponse>> MapServiceImpl::Answer(
 }
 
 StatusOr<std::vector<v1::ExportMapResponse>> MapServiceImpl::Answer(
-    grpc::CallbackServerContext*, const v1::ExportMapRequest& request) {
-  SEMMAP_ASSIGN_OR_RETURN(ExportResult result, query_->ExportMap(FromProto(request)));
+    grpc::CallbackServerContext* context, const v1::ExportMapRequest& request) {
+  SEMMAP_ASSIGN_OR_RETURN(ExportResult result,
+                          query_->ExportMap(FromProto(request), ClientStillWaiting(context)));
   std::vector<v1::ExportMapResponse> messages;
   v1::ExportHeader* header = messages.emplace_back().mutable_header();
   header->set_format(result.format);

@@ -5,19 +5,28 @@
 // (wire_parsing.h): gRPC's own parsing answers a unary request that does not parse with
 // UNIMPLEMENTED and no message, and takes a stream message that does not parse for the client's
 // half-close. Here both are INVALID_ARGUMENT naming the message.
+//
+// Every unary and server-streaming call is answered on a WorkerPool: the gRPC callback only
+// authorises and parses, so a slow export or registration never holds a gRPC thread. A call
+// cancelled (or past its deadline) while it waits for a worker is answered without doing work;
+// an export asks the same check as it goes and stops.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
 
+#include <atomic>
 #include <optional>
 #include <vector>
 
 #include "common/map_query.h"
+#include "common/rate_window.h"
+#include "common/worker_pool.h"
 #include "core/objects/object_catalog.h"
 #include "core/pipeline/ingest_manager.h"
 #include "semmap/v1/service.grpc.pb.h"
 #include "server/auth/authorizer.h"
 #include "server/service/call_access.h"
+#include "server/service/call_limits.h"
 
 namespace semmap {
 
@@ -37,10 +46,18 @@ using MapServiceBase =
 
 class MapServiceImpl final : public MapServiceBase {
  public:
-  // `authorizer`: null serves every call (no --auth-tokens).
+  // `authorizer`: null serves every call (no --auth-tokens). `workers`: null answers on the
+  // gRPC callback thread.
   MapServiceImpl(IngestManager* ingest, MapQueryInterface* query, ObjectCatalog* objects,
-                 const Authorizer* authorizer = nullptr)
-      : ingest_(ingest), query_(query), objects_(objects), authorizer_(authorizer) {}
+                 const Authorizer* authorizer = nullptr, WorkerPool* workers = nullptr,
+                 CallLimits limits = {})
+      : ingest_(ingest),
+        query_(query),
+        objects_(objects),
+        authorizer_(authorizer),
+        workers_(workers),
+        limits_(limits),
+        registrations_(limits.max_registrations_per_minute, std::chrono::minutes(1)) {}
 
   using Raw = grpc::ByteBuffer;
   grpc::ServerBidiReactor<Raw, Raw>* Ingest(grpc::CallbackServerContext* context) override;
@@ -101,10 +118,21 @@ class MapServiceImpl final : public MapServiceBase {
   Status Authorize(grpc::CallbackServerContext* context, const CallAccess& access,
                    std::optional<TokenGrant>* grant) const;
 
+  // The per-call limits that apply before a call is queued (registrations per minute).
+  template <typename Request>
+  Status Admit(const Request& request);
+
+  // On a worker (inline without a pool); RESOURCE_EXHAUSTED when the queue is full.
+  Status RunOnWorker(std::function<void()> work);
+
   IngestManager* ingest_;
   MapQueryInterface* query_;
   ObjectCatalog* objects_;
   const Authorizer* authorizer_;
+  WorkerPool* workers_;
+  const CallLimits limits_;
+  RateWindow registrations_;
+  std::atomic<size_t> pending_exports_{0};
 };
 
 }  // namespace semmap

@@ -1,6 +1,8 @@
 // Server-streaming reactor that writes a prepared list of messages one by one, then finishes.
 // Queries build their answer up front (bounded by the store), so streaming is just pacing. The
-// methods are raw (byte buffers, see wire_parsing.h): the messages are serialised here.
+// methods are raw (byte buffers, see wire_parsing.h): the messages are serialised here. The
+// handler returns the reactor at once; the answer, built on a worker, arrives by Send or Fail
+// (from any thread, once).
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -16,8 +18,15 @@ namespace semmap {
 
 class MessageStreamReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffer> {
  public:
+  MessageStreamReactor() = default;  // waits for Send or Fail
   template <typename Response>
   explicit MessageStreamReactor(const std::vector<Response>& messages) {
+    Send(messages);
+  }
+  explicit MessageStreamReactor(const grpc::Status& error) { Fail(error); }
+
+  template <typename Response>
+  void Send(const std::vector<Response>& messages) {
     Status serialized = OkStatus();
     {
       MutexLock lock(mutex_);
@@ -33,7 +42,7 @@ class MessageStreamReactor final : public grpc::ServerWriteReactor<grpc::ByteBuf
     }
     Next();
   }
-  explicit MessageStreamReactor(const grpc::Status& error) { Finish(error); }
+  void Fail(const grpc::Status& error) { Finish(error); }
 
   void OnWriteDone(bool ok) override {
     if (!ok) {

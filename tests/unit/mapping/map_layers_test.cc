@@ -531,6 +531,39 @@ TEST_F(MapLayersTest, ExportsReadBackWithOctoMapAndPcl) {
   EXPECT_EQ(BuildExport(*read_, bad_view, options_).status().code(), StatusCode::kInvalidArgument);
 }
 
+// A cancelled export stops between keyframes: the check is asked again and again while a
+// layer is rebuilt, and its status (not a partial export) is the answer.
+TEST_F(MapLayersTest, RebuildingExportsStopWhenCancelled) {
+  StoreKeyframes(false);
+  for (const std::string format : {"ot", "ply", "png"}) {
+    for (const int cancel_after : {0, 3}) {
+      int asked = 0;
+      ExportRequest request;
+      request.map = map_.name;
+      request.format = format;
+      request.session = session_.name;  // a rebuild from the stored keyframes
+      const CancelCheck cancel = [&]() -> Status {
+        return ++asked > cancel_after ? CancelledError("gone") : OkStatus();
+      };
+      const StatusOr<ExportResult> result = BuildExport(*read_, request, options_, cancel);
+      EXPECT_EQ(result.status().code(), StatusCode::kCancelled) << format << " " << cancel_after;
+      EXPECT_EQ(asked, cancel_after + 1) << format << ": it went on after the cancellation";
+    }
+    // Never cancelled: the same export completes, having asked once per keyframe or more.
+    int asked = 0;
+    ExportRequest request;
+    request.map = map_.name;
+    request.format = format;
+    request.session = session_.name;
+    const StatusOr<ExportResult> whole = BuildExport(*read_, request, options_, [&] {
+      ++asked;
+      return OkStatus();
+    });
+    ASSERT_TRUE(whole.ok()) << whole.status().ToString();
+    EXPECT_GE(asked, 4) << format;
+  }
+}
+
 TEST_F(MapLayersTest, MapWithoutLayersIsNotFound) {
   EXPECT_EQ(Export("ot").status().code(), StatusCode::kNotFound);
   EXPECT_EQ(Export("ply").status().code(), StatusCode::kNotFound);
