@@ -26,6 +26,7 @@ TEST(ConcurrentCallsTest, SessionsQueriesAndExportsRunSideBySide) {
   std::atomic<bool> streaming{true};
   std::vector<Status> stream_status(kSessions, OkStatus());
   std::vector<std::thread> devices;
+  devices.reserve(kSessions);
   for (int s = 0; s < kSessions; ++s) {
     devices.emplace_back([&, s] {
       const std::string map = "home" + std::to_string(s % 2);  // two sessions share a map

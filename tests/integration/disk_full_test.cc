@@ -75,7 +75,7 @@ class DiskFullTest : public ::testing::Test {
       T.translation().x() = 0.3 * i;  // every frame a keyframe: images are stored
       if (!(*stream)->Write(testing::MakeFrame(i, T, kWidth, kHeight)).ok()) break;
     }
-    const Status status = (*stream)->Finish().status();
+    Status status = (*stream)->Finish().status();
     *durable = (*stream)->durable_seq();
     return status;
   }
