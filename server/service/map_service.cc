@@ -112,18 +112,17 @@ grpc::ServerWriteReactor<grpc::ByteBuffer>* MapServiceImpl::Stream(
   }
   auto* reactor = new MessageStreamReactor();
   const Status queued = RunOnWorker([this, context, reactor, request = std::move(request)] {
-    Status still_waiting = ClientStillWaiting(context)();
-    if (still_waiting.ok()) {
-      auto messages = Answer(context, request);
-      if (messages.ok()) {
-        reactor->Send(*messages);
-      } else {
-        reactor->Fail(ToGrpcStatus(messages.status()));
-      }
-    } else {
-      reactor->Fail(ToGrpcStatus(still_waiting));
-    }
+    auto messages = [&]() -> decltype(this->Answer(context, request)) {
+      SEMMAP_RETURN_IF_ERROR(ClientStillWaiting(context)());
+      return Answer(context, request);
+    }();
+    // Released before the client can see the answer, so its next export is admitted.
     if (kExport) pending_exports_.fetch_sub(1);
+    if (messages.ok()) {
+      reactor->Send(*messages);
+    } else {
+      reactor->Fail(ToGrpcStatus(messages.status()));
+    }
   });
   if (!queued.ok()) {
     if (kExport) pending_exports_.fetch_sub(1);
