@@ -22,8 +22,8 @@
 #include <vector>
 
 #include "client/datasets/dataset.h"
-#include "client/datasets/image_file.h"
 #include "client/lib/map_client.h"
+#include "client/lib/wire_frame.h"
 #include "common/arg_parser.h"
 #include "server/serialization/conversions.h"
 #include "storage/sqlite/sqlite_map_store.h"
@@ -55,19 +55,8 @@ struct Acknowledged {
 StatusOr<std::vector<v1::Frame>> LoadFrames(const Dataset& dataset) {
   std::vector<v1::Frame> frames;
   for (const DatasetFrame& f : dataset.frames) {
-    v1::Frame& frame = frames.emplace_back();
-    frame.set_seq(static_cast<uint64_t>(f.seq));
-    ToProto(f.stamp_ns, frame.mutable_timestamp());
-    SEMMAP_ASSIGN_OR_RETURN(EncodedFile colour, ReadImageFile(f.colour_path));
-    frame.mutable_colour()->mutable_compressed()->set_format(colour.format);
-    frame.mutable_colour()->mutable_compressed()->set_data(std::move(colour.bytes));
-    if (f.depth_path) {
-      SEMMAP_ASSIGN_OR_RETURN(EncodedFile depth, ReadImageFile(*f.depth_path));
-      frame.mutable_depth()->mutable_image()->mutable_compressed()->set_format(depth.format);
-      frame.mutable_depth()->mutable_image()->mutable_compressed()->set_data(
-          std::move(depth.bytes));
-      frame.mutable_depth()->set_depth_scale(dataset.depth_scale);
-    }
+    SEMMAP_ASSIGN_OR_RETURN(frames.emplace_back(),
+                            MakeWireFrame(f, true, dataset.depth_scale, std::nullopt));
   }
   return frames;
 }

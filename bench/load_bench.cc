@@ -10,7 +10,13 @@
 // --duration-s S makes it a soak: sessions start again (a new session each time) until S
 // seconds have passed; RSS and descriptors are then reported per minute, first vs last.
 //
+// Then, on the stored data with the server stopped: cancel-to-stop of an export that rebuilds
+// an RGBD map's occupancy layer (the longest work a query worker does). The export runs once
+// whole, then --cancel-rounds times cancelled at spread fractions of that time; each prints
+// how long after its cancellation the export returned (the goal is under 100 ms).
+//
 //   load_bench [--known-poses 8] [--rgbd 4] [--query-hz 100] [--duration-s 0] [--dataset DIR]
+//              [--cancel-rounds 8]
 #include <dirent.h>
 
 #include <algorithm>
@@ -28,11 +34,13 @@
 #include <vector>
 
 #include "client/datasets/dataset.h"
-#include "client/datasets/image_file.h"
 #include "client/datasets/pose_lookup.h"
 #include "client/lib/map_client.h"
+#include "client/lib/wire_frame.h"
 #include "common/arg_parser.h"
+#include "core/query/store_map_query.h"
 #include "server/serialization/conversions.h"
+#include "storage/sqlite/sqlite_map_store.h"
 #include "tests/testing/server_process.h"
 #include "tests/testing/temp_dir.h"
 
@@ -91,26 +99,12 @@ double Percentile(std::vector<double> values, double q) {
   return values[std::min(rank, values.size() - 1)];
 }
 
-StatusOr<std::vector<v1::Frame>> LoadFrames(const Dataset& dataset, bool with_depth,
-                                            const PoseLookup* poses) {
+StatusOr<std::vector<v1::Frame>> LoadFrames(const Dataset& dataset, const PoseLookup* poses) {
   std::vector<v1::Frame> frames;
   for (const DatasetFrame& f : dataset.frames) {
     std::optional<Eigen::Isometry3d> T;
     if (poses != nullptr && !(T = poses->At(f.stamp_ns))) continue;  // no pose: not sent
-    v1::Frame& frame = frames.emplace_back();
-    frame.set_seq(static_cast<uint64_t>(frames.size() - 1));
-    ToProto(f.stamp_ns, frame.mutable_timestamp());
-    if (T) ToProto(*T, frame.mutable_pose_prior());
-    SEMMAP_ASSIGN_OR_RETURN(EncodedFile colour, ReadImageFile(f.colour_path));
-    frame.mutable_colour()->mutable_compressed()->set_format(colour.format);
-    frame.mutable_colour()->mutable_compressed()->set_data(std::move(colour.bytes));
-    if (with_depth && f.depth_path) {
-      SEMMAP_ASSIGN_OR_RETURN(EncodedFile depth, ReadImageFile(*f.depth_path));
-      frame.mutable_depth()->mutable_image()->mutable_compressed()->set_format(depth.format);
-      frame.mutable_depth()->mutable_image()->mutable_compressed()->set_data(
-          std::move(depth.bytes));
-      frame.mutable_depth()->set_depth_scale(dataset.depth_scale);
-    }
+    SEMMAP_ASSIGN_OR_RETURN(frames.emplace_back(), MakeWireFrame(f, true, dataset.depth_scale, T));
   }
   return frames;
 }
@@ -147,6 +141,52 @@ void RunSession(MapClient& client, const Dataset& dataset, v1::SessionMode mode,
   result->seconds = SecondsSince(t0);
 }
 
+// Cancel-to-stop of a rebuilt occupancy export of `map` (see the top). Returns false on error.
+bool MeasureExportCancel(const std::string& db_path, const std::string& map, int rounds) {
+  auto store = SqliteMapStore::Open(db_path, SqliteOptions{});
+  if (!store.ok()) {
+    std::cout << "  export cancel: cannot open " << db_path << ": " << store.status().ToString()
+              << "\n";
+    return false;
+  }
+  StoreMapQuery query(std::move(store).value());
+  ExportRequest request;
+  request.map = map;
+  request.format = "ot";
+  request.voxel_m = 0.03;  // not the map's own resolution: the layer is rebuilt from keyframes
+  const Clock::time_point whole_start = Clock::now();
+  auto whole = query.ExportMap(request);
+  const double whole_ms = 1000.0 * SecondsSince(whole_start);
+  if (!whole.ok()) {
+    std::cout << "  export cancel: the whole export failed: " << whole.status().ToString() << "\n";
+    return false;
+  }
+  std::vector<double> stop_ms;
+  for (int round = 0; round < rounds; ++round) {
+    const double cancel_after_ms = whole_ms * (round + 0.5) / rounds;
+    const Clock::time_point start = Clock::now();
+    const Clock::time_point cancel_at =
+        start + std::chrono::duration_cast<Clock::duration>(
+                    std::chrono::duration<double, std::milli>(cancel_after_ms));
+    auto cancelled = query.ExportMap(request, [&] {
+      return Clock::now() >= cancel_at ? CancelledError("cancelled by the bench") : OkStatus();
+    });
+    const Clock::time_point returned = Clock::now();
+    if (cancelled.ok()) continue;  // finished before the cancel took effect
+    if (cancelled.status().code() != StatusCode::kCancelled) {
+      std::cout << "  export cancel: " << cancelled.status().ToString() << "\n";
+      return false;
+    }
+    stop_ms.push_back(std::chrono::duration<double, std::milli>(returned - cancel_at).count());
+  }
+  std::cout << std::setprecision(1) << "  export cancel (" << map << ", occupancy rebuilt at "
+            << request.voxel_m << " m: " << whole_ms << " ms whole, " << whole->bytes.size()
+            << " bytes): " << stop_ms.size() << " of " << rounds
+            << " cancelled in flight, stopped after p50 " << Percentile(stop_ms, 0.5) << " ms, max "
+            << Percentile(stop_ms, 1.0) << " ms\n";
+  return true;
+}
+
 int Run(int argc, const char* const* argv) {
   ArgParser args;
   args.AddFlag("known-poses", "N", "KNOWN_POSES sessions at once (default 8)");
@@ -154,6 +194,7 @@ int Run(int argc, const char* const* argv) {
   args.AddFlag("query-hz", "HZ", "where / near queries per second (default 100)");
   args.AddFlag("duration-s", "S", "soak: keep streaming new sessions for S seconds (default 0)");
   args.AddFlag("dataset", "DIR", "TUM-layout RGB-D sequence with ground truth (default teddy)");
+  args.AddFlag("cancel-rounds", "N", "cancelled exports measured after the load (default 8)");
   if (Status parsed = args.Parse(argc, argv); !parsed.ok()) {
     std::cerr << "load_bench: " << parsed.message() << "\n" << args.Usage();
     return 2;
@@ -162,8 +203,10 @@ int Run(int argc, const char* const* argv) {
   const auto rgbd = args.GetInt("rgbd", 4);
   const auto query_hz = args.GetDouble("query-hz", 100);
   const auto duration_s = args.GetDouble("duration-s", 0);
-  if (!known.ok() || !rgbd.ok() || !query_hz.ok() || !duration_s.ok() || *known < 0 || *rgbd < 0 ||
-      *known + *rgbd < 1 || *query_hz <= 0 || *duration_s < 0) {
+  const auto cancel_rounds = args.GetInt("cancel-rounds", 8);
+  if (!known.ok() || !rgbd.ok() || !query_hz.ok() || !duration_s.ok() || !cancel_rounds.ok() ||
+      *known < 0 || *rgbd < 0 || *known + *rgbd < 1 || *query_hz <= 0 || *duration_s < 0 ||
+      *cancel_rounds < 0) {
     std::cerr << "load_bench: bad numbers\n" << args.Usage();
     return 2;
   }
@@ -176,8 +219,8 @@ int Run(int argc, const char* const* argv) {
     return 2;
   }
   const PoseLookup poses(dataset->ground_truth);
-  auto rgbd_frames = LoadFrames(*dataset, true, nullptr);
-  auto known_frames = LoadFrames(*dataset, true, &poses);
+  auto rgbd_frames = LoadFrames(*dataset, nullptr);
+  auto known_frames = LoadFrames(*dataset, &poses);
   if (!rgbd_frames.ok() || !known_frames.ok()) {
     std::cerr << "load_bench: cannot read the frames\n";
     return 2;
@@ -295,7 +338,12 @@ int Run(int argc, const char* const* argv) {
   }
   std::cout << "\n  peak RSS " << peak << " MiB; errors " << errors << "; semmapd exit "
             << exit_code << "\n";
-  return errors == 0 && exit_code == 0 ? 0 : 1;
+  bool cancel_ok = true;
+  if (*rgbd > 0 && *cancel_rounds > 0) {
+    cancel_ok = MeasureExportCancel(temp.File("data") + "/semmap.db", "rgbd0",
+                                    static_cast<int>(*cancel_rounds));
+  }
+  return errors == 0 && exit_code == 0 && cancel_ok ? 0 : 1;
 }
 
 }  // namespace

@@ -33,7 +33,6 @@ StatusOr<std::unique_ptr<WorkerPool>> WorkerPool::Start(const WorkerPoolOptions&
 WorkerPool::~WorkerPool() { Stop(); }
 
 Status WorkerPool::Submit(std::function<void()> work) {
-  if (queue_.is_shutdown()) return UnavailableError("the server is shutting down");
   if (!queue_.TryPush(work)) {
     if (queue_.is_shutdown()) return UnavailableError("the server is shutting down");
     return ResourceExhaustedError("the server's call queue is full (" +

@@ -26,6 +26,8 @@ PACKAGES=(
   procps jq
   # TLS tests make their keys and certificates with the openssl tool
   openssl
+  # the Python client (client/python) and its tests
+  python3-grpcio python3-protobuf python3-numpy python3-opencv python3-pytest
 )
 for extra in "$@"; do
   case "$extra" in

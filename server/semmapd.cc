@@ -47,6 +47,8 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
       args.GetInt("max-streams", static_cast<long long>(options->ingest.max_streams)));
   if (streams < 1) return semmap::InvalidArgumentError("--max-streams must be >= 1");
   options->ingest.max_streams = static_cast<size_t>(streams);
+  SEMMAP_ASSIGN_OR_RETURN(options->ingest.max_frames_per_second,
+                          args.GetDouble("max-session-fps", options->ingest.max_frames_per_second));
   SEMMAP_ASSIGN_OR_RETURN(
       long long open_maps,
       args.GetInt("max-open-maps", static_cast<long long>(options->ingest.max_open_maps)));
@@ -200,6 +202,10 @@ int main(int argc, char** argv) {
   args.AddFlag(
       "max-streams", "N",
       "concurrent ingest streams; one more is refused with RESOURCE_EXHAUSTED (default 64)");
+  args.AddFlag("max-session-fps", "FPS",
+               "frames per second one ingest stream may send on average (bursts of two "
+               "seconds' worth pass); a faster one ends with RESOURCE_EXHAUSTED, keeping what "
+               "came before (default 0: no limit)");
   args.AddFlag("stream-idle-timeout-s", "S",
                "end a stream that sends nothing for S seconds with DEADLINE_EXCEEDED, keeping "
                "what it sent (default 60; 0: never)");

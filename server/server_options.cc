@@ -61,7 +61,8 @@ std::string ServerOptions::ToString() const {
       << " queue_capacity=" << ingest.queue_capacity
       << " max_frame_bytes=" << ingest.max_frame_bytes << " max_streams=" << ingest.max_streams
       << " max_open_maps=" << ingest.max_open_maps << " max_idle_maps=" << ingest.max_idle_maps
-      << " stream_idle_timeout_s=" << ingest.idle_timeout_s << " query_workers=" << calls.workers
+      << " stream_idle_timeout_s=" << ingest.idle_timeout_s
+      << " max_session_fps=" << ingest.max_frames_per_second << " query_workers=" << calls.workers
       << " query_queue=" << calls.worker_queue
       << " max_pending_exports=" << calls.max_pending_exports
       << " max_registrations_per_minute=" << calls.max_registrations_per_minute

@@ -9,9 +9,9 @@
 #include "client/cli/commands.h"
 #include "client/cli/progress_bar.h"
 #include "client/datasets/dataset.h"
-#include "client/datasets/image_file.h"
 #include "client/datasets/pose_lookup.h"
 #include "client/datasets/trajectory_io.h"
+#include "client/lib/wire_frame.h"
 #include "server/serialization/conversions.h"
 
 namespace semmap::cli {
@@ -41,14 +41,6 @@ std::string ResolvePosesPath(const std::string& dir, const std::string& path) {
   if (fs::exists(path)) return path;
   const fs::path inside = fs::path(dir) / path;
   return fs::exists(inside) ? inside.string() : path;
-}
-
-StatusOr<v1::Image> LoadImage(const std::string& path) {
-  SEMMAP_ASSIGN_OR_RETURN(EncodedFile file, ReadImageFile(path));
-  v1::Image image;
-  image.mutable_compressed()->set_format(file.format);
-  image.mutable_compressed()->set_data(std::move(file.bytes));
-  return image;
 }
 
 }  // namespace
@@ -137,36 +129,20 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
   uint64_t sent = 0, skipped_no_pose = 0;
   Status failure;
   for (const DatasetFrame& f : dataset->frames) {
-    v1::Frame frame;
-    frame.set_seq(f.seq);
-    ToProto(f.stamp_ns, frame.mutable_timestamp());
-    if (poses) {
-      std::optional<Eigen::Isometry3d> T = poses->At(f.stamp_ns);
-      if (!T) {
-        ++skipped_no_pose;
-        continue;
-      }
-      ToProto(*T, frame.mutable_pose_prior());
+    std::optional<Eigen::Isometry3d> T;
+    if (poses && !(T = poses->At(f.stamp_ns))) {
+      ++skipped_no_pose;
+      continue;
     }
-    StatusOr<v1::Image> colour = LoadImage(f.colour_path);
-    if (!colour.ok()) {
-      failure = colour.status();
+    StatusOr<v1::Frame> frame = MakeWireFrame(f, has_depth, dataset->depth_scale, T);
+    if (!frame.ok()) {
+      failure = frame.status();
       break;
-    }
-    *frame.mutable_colour() = std::move(colour).value();
-    if (has_depth && f.depth_path) {
-      StatusOr<v1::Image> depth = LoadImage(*f.depth_path);
-      if (!depth.ok()) {
-        failure = depth.status();
-        break;
-      }
-      *frame.mutable_depth()->mutable_image() = std::move(depth).value();
-      frame.mutable_depth()->set_depth_scale(dataset->depth_scale);
     }
     if (args.rate_hz > 0) {
       std::this_thread::sleep_until(t0 + std::chrono::duration<double>(sent / args.rate_hz));
     }
-    failure = (*stream)->Write(std::move(frame));
+    failure = (*stream)->Write(std::move(frame).value());
     if (!failure.ok()) break;
     ++sent;
     progress.Update(sent);

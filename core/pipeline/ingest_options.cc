@@ -29,6 +29,11 @@ Status IngestOptions::Validate() const {
   if (!std::isfinite(idle_timeout_s) || idle_timeout_s < 0 || idle_timeout_s > 86400) {
     return InvalidArgumentError("stream idle timeout must be in [0, 86400] s (0: none)");
   }
+  if (!std::isfinite(max_frames_per_second) || max_frames_per_second < 0 ||
+      max_frames_per_second > 10000) {
+    return InvalidArgumentError(
+        "max frames per second per session must be in [0, 10000] (0: none)");
+  }
   SEMMAP_RETURN_IF_ERROR(keyframes.Validate().WithContext("keyframe options"));
   SEMMAP_RETURN_IF_ERROR(layers.Validate());
   SEMMAP_RETURN_IF_ERROR(objects.Validate());

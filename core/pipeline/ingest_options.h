@@ -32,6 +32,9 @@ struct IngestOptions {
   // A stream that sends nothing for this long ends with DEADLINE_EXCEEDED, keeping what it
   // sent (0: never).
   double idle_timeout_s = 60;
+  // Frames per second one session may send on average (bursts of two seconds' worth allowed);
+  // a faster stream ends with RESOURCE_EXHAUSTED, keeping what came before (0: no limit).
+  double max_frames_per_second = 0;
   // How sessions start their threads (empty: LaunchThread); tests make it fail.
   ThreadLauncher launch_thread;
   // Opens a read connection for a map stage's restore (on the stage's thread); empty: restores

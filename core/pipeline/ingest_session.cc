@@ -1,5 +1,6 @@
 #include "core/pipeline/ingest_session.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <ctime>
 #include <string>
@@ -101,7 +102,13 @@ IngestSession::IngestSession(std::shared_ptr<IngestSink> sink, StorageWriter* wr
       on_finished_(std::move(on_finished)),
       queue_(options_.queue_capacity),
       pipelines_(std::move(pipelines)),
-      protocol_(options_.max_frame_bytes) {}
+      protocol_(options_.max_frame_bytes) {
+  if (options_.max_frames_per_second > 0) {
+    // Two seconds' worth: a paced client whose frames bunch up behind a stall still passes.
+    frame_rate_.emplace(options_.max_frames_per_second,
+                        std::max(1.0, 2 * options_.max_frames_per_second));
+  }
+}
 
 IngestSession::~IngestSession() {
   Stop();
@@ -112,6 +119,17 @@ IngestSession::~IngestSession() {
 }
 
 bool IngestSession::TryEnqueue(IngestMessage& message) {
+  if (!HasRoom()) return false;
+  if (const auto* frame = std::get_if<IngestFrame>(&message);
+      frame != nullptr && frame_rate_ && !frame_rate_->TryTake()) {
+    char limit[32];
+    std::snprintf(limit, sizeof(limit), "%g", frame_rate_->rate_per_s());
+    message = IngestInvalid{ResourceExhaustedError(
+        std::string("frame rate limit: the stream sent frames faster than the server's limit of ") +
+        limit + " frames/s per session (semmapd --max-session-fps) at frame seq " +
+        std::to_string(frame->seq) + "; the frames before it are kept. Pace the stream (semmap " +
+        "ingest --rate)")};
+  }
   if (!queue_.TryPush(message)) return false;
   report_.Received();
   return true;

@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "common/bounded_queue.h"
+#include "common/token_bucket.h"
 #include "core/pipeline/commit_tracker.h"
 #include "core/pipeline/frame_ingestor.h"
 #include "core/pipeline/ingest_options.h"
@@ -54,6 +55,9 @@ class IngestSession {
   static constexpr size_t kStagedCapacity = 2;
 
   // Never blocks. False when the queue is full: pause reading until IngestSink::OnQueueRoom.
+  // A frame over the operator's frame-rate limit is queued as the IngestInvalid that ends the
+  // stream (RESOURCE_EXHAUSTED): `message` holds it afterwards. Calls are serialised by the
+  // caller (the session's handle).
   bool TryEnqueue(IngestMessage& message);
   bool HasRoom() const { return queue_.size() < queue_.capacity(); }
 
@@ -101,6 +105,7 @@ class IngestSession {
   const IngestOptions options_;
   const std::function<void()> on_finished_;
   BoundedQueue<IngestMessage> queue_;
+  std::optional<TokenBucket> frame_rate_;  // options.max_frames_per_second, set
   BoundedQueue<StagedMessage> staged_{kStagedCapacity};
 
   // Worker-thread state.

@@ -89,6 +89,8 @@ void IngestReactor::PushToSessionLocked(IngestMessage message) {
   if (!stream_->TryEnqueue(message)) {
     reads_closed_ = true;
     stream_->Stop();
+  } else if (std::holds_alternative<IngestInvalid>(message)) {
+    reads_closed_ = true;  // the session turned a frame into its end (the frame-rate limit)
   }
 }
 

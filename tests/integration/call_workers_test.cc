@@ -66,10 +66,10 @@ class BlockingQuery final : public MapQueryInterface {
 
   // Waits (up to 30 s) until `count` exports have started / been cancelled.
   bool WaitForExports(int count) {
-    return WaitFor([&] { return exports_started_ >= count; });
+    return WaitFor([&]() SEMMAP_REQUIRES(mutex_) { return exports_started_ >= count; });
   }
   bool WaitForCancelled(int count) {
-    return WaitFor([&] { return exports_cancelled_ >= count; });
+    return WaitFor([&]() SEMMAP_REQUIRES(mutex_) { return exports_cancelled_ >= count; });
   }
   void Release() {
     MutexLock lock(mutex_);

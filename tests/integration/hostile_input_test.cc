@@ -478,6 +478,23 @@ TEST_F(HostileInputTest, StreamsAreCappedAndIdleOnesTimeOut) {
   EXPECT_TRUE(Stream("after-idle", 2, std::nullopt).ok());
 }
 
+// The operator's frame-rate limit per session (issue 15): a stream over it ends with
+// RESOURCE_EXHAUSTED naming the limit and keeps what came before; other streams are unaffected.
+TEST_F(HostileInputTest, StreamsFasterThanTheSessionFrameRateLimitEnd) {
+  options_.ingest.max_frames_per_second = 5;  // bursts of 10 frames
+  RestartServer();
+  const Status flood = Stream("flood", 60, std::nullopt);
+  ExpectStatus(flood, StatusCode::kResourceExhausted,
+               "limit of 5 frames/s per session (semmapd --max-session-fps)");
+  const size_t stored = StoredFrames("flood");
+  EXPECT_GE(stored, 10u);  // the burst
+  EXPECT_LT(stored, 60u);
+  EXPECT_EQ(StoredSession("flood").end_reason, SessionEndReason::kError);
+  EXPECT_TRUE(Stream("within-burst", 8, std::nullopt).ok());
+  EXPECT_EQ(StoredFrames("within-burst"), 8u);
+  ExpectServing();
+}
+
 // 9. SessionInfo.ended did not say what happened; now end_reason does.
 TEST_F(HostileInputTest, SessionsSayHowTheyEnded) {
   ASSERT_TRUE(Stream("completed", 2, std::nullopt).ok());

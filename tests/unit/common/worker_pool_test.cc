@@ -6,8 +6,6 @@
 #include <chrono>
 #include <future>
 
-#include "common/rate_window.h"
-
 namespace semmap {
 namespace {
 
@@ -49,22 +47,6 @@ TEST(WorkerPoolTest, OptionsAreValidated) {
   EXPECT_EQ(WorkerPool::Start({1, 0, "w"}).status().code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(WorkerPool::Start({1, 1, "a-name-longer-than-15"}).status().code(),
             StatusCode::kInvalidArgument);
-}
-
-TEST(RateWindowTest, AdmitsAtMostNPerWindowAndForgetsOldEvents) {
-  RateWindow window(2, std::chrono::seconds(60));
-  const RateWindow::Clock::time_point t0{};
-  EXPECT_TRUE(window.TryAcquire(t0));
-  EXPECT_TRUE(window.TryAcquire(t0 + std::chrono::seconds(10)));
-  EXPECT_FALSE(window.TryAcquire(t0 + std::chrono::seconds(59)));
-  EXPECT_TRUE(window.TryAcquire(t0 + std::chrono::seconds(60)));  // the first has left
-  EXPECT_FALSE(window.TryAcquire(t0 + std::chrono::seconds(61)));
-  EXPECT_TRUE(window.TryAcquire(t0 + std::chrono::seconds(71)));
-}
-
-TEST(RateWindowTest, ZeroMeansNoLimit) {
-  RateWindow window(0, std::chrono::seconds(60));
-  for (int i = 0; i < 1000; ++i) EXPECT_TRUE(window.TryAcquire());
 }
 
 }  // namespace
