@@ -2,7 +2,7 @@
 # they need, configure and build (Release, Ninja, ccache) and then run.
 JOBS ?= $(shell nproc)
 
-.PHONY: demo test deps build test-asan test-tsan test-core lint format-check fuzz bench format clean
+.PHONY: demo test deps build test-asan test-tsan test-core lint format-check fuzz bench format clean docker-test
 
 deps:
 	bash scripts/install-deps.sh
@@ -103,3 +103,9 @@ train-smoke:
 	bash scripts/install-deps.sh train
 	/usr/bin/python3 -m pytest training/tests -q -m "not slow"
 	cd training && OMP_WAIT_POLICY=PASSIVE /usr/bin/python3 -m semmap_vo.train --smoke --threads 2
+
+# The Docker image, built and tested for real with podman (root; not part of `make test`: the
+# image build takes minutes). docker/README.md.
+docker-test: build
+	apt-get install -y -q podman runc debootstrap >/dev/null
+	bash docker/test-image.sh

@@ -23,6 +23,8 @@ struct ObjectView {
   // to the store, which checksums them.
   std::string features_format;
   std::string features;
+  // Keypoints in `features`: set when the view is built and by queries that drop the bytes.
+  size_t feature_count = 0;
 };
 
 // A kind of object users want found ("laptop", "teddy"): global (every map) or one map's.

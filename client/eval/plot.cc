@@ -7,11 +7,11 @@
 #include <cstring>
 #include <exception>
 #include <fstream>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "client/eval/plot_canvas.h"
+#include "core/sensor/image_encoding.h"
 
 namespace semmap {
 namespace {
@@ -82,16 +82,10 @@ Status CheckRenderable(const AteResult& ate, const PlotOptions& options) {
 }
 
 Status WritePng(const cv::Mat& image, const std::string& path) {
-  std::vector<uchar> bytes;
-  try {
-    if (!cv::imencode(".png", image, bytes)) return InternalError("PNG encoding failed");
-  } catch (const cv::Exception& e) {
-    return InternalError(std::string("PNG encoding failed: ") + e.what());
-  }
+  SEMMAP_ASSIGN_OR_RETURN(const std::string bytes, EncodePng(image));
   std::ofstream file(path, std::ios::binary | std::ios::trunc);
   if (!file) return UnavailableError(path + ": cannot create: " + std::strerror(errno));
-  file.write(reinterpret_cast<const char*>(bytes.data()),
-             static_cast<std::streamsize>(bytes.size()));
+  file.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   file.close();
   if (!file) return UnavailableError(path + ": write failed");
   return OkStatus();

@@ -6,9 +6,10 @@
 #include <cstdio>
 #include <new>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <ranges>
+
+#include "core/sensor/image_encoding.h"
 
 namespace semmap {
 namespace {
@@ -917,12 +918,8 @@ StatusOr<std::string> Render(const MapRenderInput& input, const MapRenderOptions
   cv::rectangle(image, area, kFrameColour, 1);
   DrawTitleBand(image, view, input, options);
 
-  std::vector<uchar> png;
   // Level 3: within a few percent of the smallest file at a fraction of level 9's time.
-  if (!cv::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 3})) {
-    return InternalError("PNG encoding failed");
-  }
-  return std::string(png.begin(), png.end());
+  return EncodePng(image, 3);
 }
 
 }  // namespace

@@ -109,6 +109,7 @@ StatusOr<ObjectType> ObjectCatalog::Register(const RegisterObjectInput& input,
     stored.height = view->height;
     stored.features_format = std::string(kFeatureCodecFormat);
     stored.features = EncodeFeatures(view->features);
+    stored.feature_count = view->features.size();
     type.views.push_back(std::move(stored));
     entry.model.views.push_back(std::move(view).value());
   }

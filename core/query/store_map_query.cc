@@ -5,6 +5,7 @@
 #include <string>
 
 #include "core/query/map_export.h"
+#include "core/slam/feature_codec.h"
 
 namespace semmap {
 namespace {
@@ -76,11 +77,17 @@ StatusOr<std::vector<ObjectType>> StoreMapQuery::ListObjectTypes(const std::stri
     SEMMAP_ASSIGN_OR_RETURN(MapInfo info, store->GetMap(map));
     map_id = info.id;
   }
-  // With views for their count; the photos and features stay on the server.
+  // With views for their count and feature count; the photos and features stay on the server.
   SEMMAP_ASSIGN_OR_RETURN(std::vector<ObjectType> types,
                           store->ListObjectTypes(map_id, /*with_views=*/true));
   for (ObjectType& type : types) {
     for (ObjectView& view : type.views) {
+      StatusOr<FrameFeatures> features = DecodeFeatures(view.features_format, view.features);
+      if (!features.ok()) {
+        return Status(features.status().code(), "object '" + type.label + "': " +
+                                                    features.status().message());
+      }
+      view.feature_count = features->size();
       view.image = {};
       view.features.clear();
     }

@@ -2,13 +2,14 @@
 
 #include <cmath>
 #include <new>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/checked_math.h"
 #include "core/sensor/compressed_image.h"
+#include "core/sensor/image_encoding.h"
 
 namespace semmap {
 namespace {
@@ -177,12 +178,10 @@ StatusOr<EncodedImage> EncodeColourForStorage(const ImageMessage& original, cons
     out.bytes = original.data;
     return out;
   }
-  std::vector<uint8_t> buf;
-  if (!cv::imencode(".jpg", bgr, buf, {cv::IMWRITE_JPEG_QUALITY, 95})) {
-    return InternalError("JPEG encoding of a keyframe failed");
-  }
+  StatusOr<std::string> jpeg = EncodeJpeg(bgr, 95);
+  if (!jpeg.ok()) return jpeg.status().WithContext("keyframe colour image");
   out.format = "jpeg";
-  out.bytes.assign(buf.begin(), buf.end());
+  out.bytes = std::move(jpeg).value();
   return out;
 }
 
@@ -194,11 +193,9 @@ StatusOr<EncodedImage> EncodeDepthForStorage(const DepthMessage& original,
     out.bytes = original.image.data;
     return out;
   }
-  std::vector<uint8_t> buf;
-  if (!cv::imencode(".png", depth.raw, buf, {cv::IMWRITE_PNG_COMPRESSION, 1})) {
-    return InternalError("PNG encoding of a keyframe depth image failed");
-  }
-  out.bytes.assign(buf.begin(), buf.end());
+  StatusOr<std::string> png = EncodePng(depth.raw, 1);
+  if (!png.ok()) return png.status().WithContext("keyframe depth image");
+  out.bytes = std::move(png).value();
   return out;
 }
 

@@ -30,6 +30,9 @@ void ToProto(const ObjectType& type, v1::ObjectTypeInfo* out) {
   out->set_map(type.map_name);
   ToProto(type.rgb, out->mutable_colour());
   out->set_views(static_cast<uint32_t>(type.views.size()));
+  size_t features = 0;
+  for (const ObjectView& view : type.views) features += view.feature_count;
+  out->set_features(static_cast<uint32_t>(features));
   ToProto(type.created_unix_ns, out->mutable_created());
 }
 

@@ -125,7 +125,9 @@ class IngestStream:
         self.started: Optional[Started] = None
         self.summary: Optional[Summary] = None
         self.acks = 0
+        self._call_set = threading.Event()
         self._call = call_factory(self._guard(requests))
+        self._call_set.set()
 
     def _guard(self, requests):
         # gRPC swallows an exception raised by a request iterator; keep it and cancel instead,
@@ -135,6 +137,7 @@ class IngestStream:
         except BaseException as error:  # noqa: BLE001 (re-raised to the caller)
             with self._lock:
                 self._error = error
+            self._call_set.wait()  # gRPC may read the first request before the call returns
             self._call.cancel()
 
     def cancel(self) -> None:

@@ -58,8 +58,10 @@ def test_numpy_frames_stream_and_their_trajectory_round_trips(client):
 
 
 def test_rgbd_dataset_folder_objects_where_and_near(client):
-    registered = client.register_object("teddy", [str(TEDDY_PHOTO)], map="home")
-    assert registered.label == "teddy" and registered.views == 1 and registered.features > 0
+    registered = client.register_object("teddy", [str(TEDDY_PHOTO)])  # global: every map
+    assert registered.label == "teddy" and registered.map == ""
+    assert registered.views == 1 and registered.features > 0
+    assert "teddy" in [o.label for o in client.objects()]
     summary = client.ingest(str(SAMPLE), map="home", session="teddy").run()
     assert summary.frames == 80 and summary.keyframes >= 2
     assert client.sessions("home")[0].mode == "RGBD"
@@ -150,11 +152,10 @@ def test_cancel_mid_ingest_keeps_what_was_stored(client):
 def test_the_source_is_read_only_as_fast_as_the_server_takes_it(client):
     # 160 full-size RGBD frames sent raw (1.5 MB each) while the server tracks them: a client
     # without flow control would read them all at once.
-    colour = [cv2.cvtColor(cv2.imread(str(p)), cv2.COLOR_BGR2RGB)
-              for p in sorted((SAMPLE / "rgb").glob("*.png"))[:40]]
-    depth = [cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
-             for p in sorted((SAMPLE / "depth").glob("*.png"))[:40]]
     dataset = semmap.open_dataset(str(SAMPLE))
+    colour = [cv2.cvtColor(cv2.imread(f.colour_path), cv2.COLOR_BGR2RGB)
+              for f in dataset.frames[:40]]
+    depth = [cv2.imread(f.depth_path, cv2.IMREAD_UNCHANGED) for f in dataset.frames[:40]]
     pulled = []
 
     def frames():
