@@ -84,8 +84,8 @@ StatusOr<std::vector<ObjectType>> StoreMapQuery::ListObjectTypes(const std::stri
     for (ObjectView& view : type.views) {
       StatusOr<FrameFeatures> features = DecodeFeatures(view.features_format, view.features);
       if (!features.ok()) {
-        return Status(features.status().code(), "object '" + type.label + "': " +
-                                                    features.status().message());
+        return Status(features.status().code(),
+                      "object '" + type.label + "': " + features.status().message());
       }
       view.feature_count = features->size();
       view.image = {};
