@@ -8,6 +8,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ENGINE=${ENGINE:-podman}
 RUNTIME=(--runtime "${RUNTIME:-runc}")  # crun fails on this kernel's cgroups
+# podman's default limits exceed this machine's hard ones (runc then cannot set them).
+LIMITS=(--ulimit "nofile=$(ulimit -Hn):$(ulimit -Hn)" --ulimit nproc=4096:4096)
 IMAGE=${IMAGE:-semmap:test}
 PORT=${PORT:-50551}
 NAME=semmap-test-$$
@@ -42,7 +44,7 @@ echo "image sizes: $IMAGE $(size_mb "$IMAGE") MB (goal < 400), debian:bookworm-s
 [ "$(size_mb "$IMAGE")" -lt 400 ] || fail "the runtime image is not under 400 MB"
 
 run_container() {
-  $ENGINE run -d "${RUNTIME[@]}" --name "$NAME" -p "127.0.0.1:$PORT:50051" -v "$VOLUME:/data" \
+  $ENGINE run -d "${RUNTIME[@]}" "${LIMITS[@]}" --name "$NAME" -p "127.0.0.1:$PORT:50051" -v "$VOLUME:/data" \
     "$IMAGE" >/dev/null || fail "run"
   for _ in $(seq 60); do
     if $ENGINE healthcheck run "$NAME" >/dev/null 2>&1; then
@@ -63,7 +65,7 @@ stop_container() {
 }
 
 $ENGINE volume create "$VOLUME" >/dev/null
-step "first container: user $($ENGINE run --rm "${RUNTIME[@]}" --entrypoint id "$IMAGE" -un), volume $VOLUME"
+step "first container: user $($ENGINE run --rm "${RUNTIME[@]}" "${LIMITS[@]}" --entrypoint id "$IMAGE" -un), volume $VOLUME"
 run_container
 export SEMMAP_SERVER=127.0.0.1:$PORT
 "$SEMMAP" health --server "$SEMMAP_SERVER"
