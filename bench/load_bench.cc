@@ -180,10 +180,10 @@ bool MeasureExportCancel(const std::string& db_path, const std::string& map, int
     stop_ms.push_back(std::chrono::duration<double, std::milli>(returned - cancel_at).count());
   }
   std::cout << std::setprecision(1) << "  export cancel (" << map << ", occupancy rebuilt at "
-            << request.voxel_m << " m: " << whole_ms << " ms whole, " << whole->bytes.size()
-            << " bytes): " << stop_ms.size() << " of " << rounds
-            << " cancelled in flight, stopped after p50 " << Percentile(stop_ms, 0.5) << " ms, max "
-            << Percentile(stop_ms, 1.0) << " ms\n";
+            << std::setprecision(2) << request.voxel_m << std::setprecision(1) << " m: " << whole_ms
+            << " ms whole, " << whole->bytes.size() << " bytes): " << stop_ms.size() << " of "
+            << rounds << " cancelled in flight, stopped after p50 " << Percentile(stop_ms, 0.5)
+            << " ms, max " << Percentile(stop_ms, 1.0) << " ms\n";
   return true;
 }
 
@@ -238,7 +238,8 @@ int Run(int argc, const char* const* argv) {
   }
   ClientOptions options;
   options.server = server.address();
-  MapClient client(options);
+  // Each device and the app have their own connection, as separate machines would.
+  MapClient app_client(options);
 
   std::atomic<bool> ingesting{true};
   std::mutex samples_mutex;
@@ -262,6 +263,7 @@ int Run(int argc, const char* const* argv) {
     results[i].mode = is_known ? "KNOWN_POSES" : "RGBD";
     results[i].map = (is_known ? "kp" : "rgbd") + std::to_string(is_known ? i : i - *known);
     devices.emplace_back([&, i, is_known] {
+      MapClient client(options);
       RunSession(client, *dataset, is_known ? v1::SESSION_MODE_KNOWN_POSES : v1::SESSION_MODE_RGBD,
                  is_known ? *known_frames : *rgbd_frames, more, &results[i]);
     });
@@ -278,9 +280,9 @@ int Run(int argc, const char* const* argv) {
       const Clock::time_point asked = Clock::now();
       Status status = OkStatus();
       if (n % 2 == 0) {
-        status = client.FindObjects("", map).status();
+        status = app_client.FindObjects("", map).status();
       } else {
-        status = client.ObjectsNear(map, Eigen::Vector3d(0.5, 0.0, 1.0), 2.0, "").status();
+        status = app_client.ObjectsNear(map, Eigen::Vector3d(0.5, 0.0, 1.0), 2.0, "").status();
       }
       const double ms = 1000.0 * SecondsSince(asked);
       // A map no session has created yet is not an error of the server's.
