@@ -4,8 +4,9 @@
 // ground truth as the known poses), each into its own map, as fast as the server takes them;
 // and a query client asking `where` (FindObjects) and `near` (ObjectsNear, 2 m) alternately at
 // a fixed rate over those maps. It samples the server's RSS and open file descriptors every
-// second. Prints per-session frames/s, query p50/p99/max during ingest, RSS and descriptors
-// over time, and every error; exits 1 on an error.
+// second. Prints per-session frames/s, query p50/p99/max during ingest (from each query's slot
+// in the fixed-rate schedule, so a stall counts for every query it held up), RSS and
+// descriptors over time, and every error; exits 1 on an error.
 //
 // --duration-s S makes it a soak: sessions start again (a new session each time) until S
 // seconds have passed; RSS and descriptors are then reported per minute, first vs last.
@@ -277,14 +278,17 @@ int Run(int argc, const char* const* argv) {
     Clock::time_point next = Clock::now();
     for (uint64_t n = 0; ingesting.load(); ++n) {
       const std::string& map = results[n % results.size()].map;
-      const Clock::time_point asked = Clock::now();
+      // Latency counts from the query's slot in the schedule, not from when it was sent: a
+      // stalled query delays the ones behind it, and they are charged that wait (an app asking
+      // at a fixed rate sees it), instead of silently being asked fewer times.
+      const Clock::time_point asked = next;
       Status status = OkStatus();
       if (n % 2 == 0) {
         status = app_client.FindObjects("", map).status();
       } else {
         status = app_client.ObjectsNear(map, Eigen::Vector3d(0.5, 0.0, 1.0), 2.0, "").status();
       }
-      const double ms = 1000.0 * SecondsSince(asked);
+      const double ms = std::chrono::duration<double, std::milli>(Clock::now() - asked).count();
       // A map no session has created yet is not an error of the server's.
       if (status.ok()) {
         (n % 2 == 0 ? where_ms : near_ms).push_back(ms);
