@@ -281,14 +281,14 @@ int Run(int argc, const char* const* argv) {
       // Latency counts from the query's slot in the schedule, not from when it was sent: a
       // stalled query delays the ones behind it, and they are charged that wait (an app asking
       // at a fixed rate sees it), instead of silently being asked fewer times.
-      const Clock::time_point asked = next;
+      const Clock::time_point slot = next;
       Status status = OkStatus();
       if (n % 2 == 0) {
         status = app_client.FindObjects("", map).status();
       } else {
         status = app_client.ObjectsNear(map, Eigen::Vector3d(0.5, 0.0, 1.0), 2.0, "").status();
       }
-      const double ms = std::chrono::duration<double, std::milli>(Clock::now() - asked).count();
+      const double ms = 1000.0 * SecondsSince(slot);
       // A map no session has created yet is not an error of the server's.
       if (status.ok()) {
         (n % 2 == 0 ? where_ms : near_ms).push_back(ms);
