@@ -24,6 +24,7 @@
 #include <atomic>
 #include <cmath>
 #include <csignal>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -91,7 +92,19 @@ struct Sample {
   double t = 0;
   double rss_mib = 0;
   int fds = 0;
+  double db_mib = 0;  // database + WAL: what the maps hold, to set RSS growth against
 };
+
+// Size of the files at `paths` in MiB (missing ones count 0).
+double FilesMiB(const std::vector<std::string>& paths) {
+  uintmax_t bytes = 0;
+  for (const std::string& path : paths) {
+    std::error_code ec;
+    const uintmax_t size = std::filesystem::file_size(path, ec);
+    if (!ec) bytes += size;
+  }
+  return static_cast<double>(bytes) / (1 << 20);
+}
 
 double Percentile(std::vector<double> values, double q) {
   if (values.empty()) return 0;
@@ -246,11 +259,13 @@ int Run(int argc, const char* const* argv) {
   std::mutex samples_mutex;
   std::vector<Sample> samples;
   const Clock::time_point t0 = Clock::now();
+  const std::string db_path = temp.File("data") + "/semmap.db";
   std::thread sampler([&] {
     while (ingesting.load()) {
       {
         std::lock_guard lock(samples_mutex);
-        samples.push_back({SecondsSince(t0), RssMiB(server.pid()), OpenFds(server.pid())});
+        samples.push_back({SecondsSince(t0), RssMiB(server.pid()), OpenFds(server.pid()),
+                           FilesMiB({db_path, db_path + "-wal"})});
       }
       std::this_thread::sleep_for(std::chrono::seconds(1));
     }
@@ -331,16 +346,18 @@ int Run(int argc, const char* const* argv) {
   // RSS and descriptors: every 10 s (every minute in a soak), and the peak.
   const double every = *duration_s > 0 ? 60.0 : 10.0;
   double peak = 0, next_print = 0;
-  std::cout << std::setprecision(0) << "  server RSS MiB / open fds over time:";
+  std::cout << std::setprecision(0) << "  server RSS MiB / open fds / database MiB over time:";
   for (const Sample& s : samples) {
     peak = std::max(peak, s.rss_mib);
     if (s.t >= next_print) {
-      std::cout << " " << static_cast<int>(s.t) << "s:" << s.rss_mib << "/" << s.fds;
+      std::cout << " " << static_cast<int>(s.t) << "s:" << s.rss_mib << "/" << s.fds << "/"
+                << s.db_mib;
       next_print += every;
     }
   }
   if (!samples.empty()) {
-    std::cout << " end:" << samples.back().rss_mib << "/" << samples.back().fds;
+    std::cout << " end:" << samples.back().rss_mib << "/" << samples.back().fds << "/"
+              << samples.back().db_mib;
   }
   std::cout << "\n  peak RSS " << peak << " MiB; errors " << errors << "; semmapd exit "
             << exit_code << "\n";

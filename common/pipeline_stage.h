@@ -55,9 +55,9 @@ struct StageConfig {
   // Synchronous: no thread; Submit handles the event on the caller's thread (then OnIdle),
   // Flush runs OnFlush there. For tests and tools that want determinism.
   bool synchronous = false;
-  bool background = true;  // lower the thread's priority (tracking first on few cores)
-  std::string thread_name = "semmap-stage";  // as `top -H` and perf show it (15 bytes kept)
-  ThreadLauncher launch_thread;              // empty: LaunchThread (tests make it fail)
+  ThreadTier tier = ThreadTier::kBackground;  // its thread's scheduling tier (thread_priority.h)
+  std::string thread_name = "semmap-stage";   // as `top -H` and perf show it (15 bytes kept)
+  ThreadLauncher launch_thread;               // empty: LaunchThread (tests make it fail)
 };
 
 template <typename Event>
@@ -230,7 +230,7 @@ class PipelineStage {
 
   void Run() {
     NameCurrentThread(config_.thread_name);
-    if (config_.background) LowerCurrentThreadPriority();
+    RunCurrentThreadAs(config_.tier);
     OnStart();
     for (;;) {
       std::optional<Item> item = queue_.TryPop();

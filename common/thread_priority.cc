@@ -19,6 +19,23 @@ bool LowerCurrentThreadPriority(int increment) {
   return setpriority(PRIO_PROCESS, tid, current + increment) == 0;
 }
 
+int NiceIncrementOf(ThreadTier tier) {
+  switch (tier) {
+    case ThreadTier::kServing:
+      return 0;
+    case ThreadTier::kPerFrame:
+      return 10;
+    case ThreadTier::kBackground:
+      return 19;
+  }
+  return 0;
+}
+
+bool RunCurrentThreadAs(ThreadTier tier) {
+  const int increment = NiceIncrementOf(tier);
+  return increment == 0 || LowerCurrentThreadPriority(increment);
+}
+
 void NameCurrentThread(std::string_view name) {
   constexpr size_t kMaxLength = 15;  // Linux's TASK_COMM_LEN less the terminator
   const std::string cut(name.substr(0, kMaxLength));

@@ -1,10 +1,26 @@
-// Background threads (object recognition, map layer rebuilds) yield the CPU to tracking: on a
-// machine with fewer cores than busy threads, the scheduler then runs the per-frame work first.
+// Scheduling tiers. On a machine with fewer cores than busy threads (12 ingest streams on 2
+// cores), the scheduler then answers a query before it decodes or tracks a frame, and tracks a
+// frame before it rebuilds a map layer. The serving tier matters most: gRPC's callback threads
+// carry every call's bytes (queries' too), so when they wait behind per-frame work every query
+// waits with them (measured: `where` p50 33 s under load_bench with all threads at one level).
 #pragma once
 
 #include <string_view>
 
 namespace semmap {
+
+enum class ThreadTier {
+  kServing,     // gRPC's threads, query workers, the storage writer: the process's priority
+  kPerFrame,    // ingest decode and tracking, the SLAM back end: nice + 10
+  kBackground,  // map layer rebuilds, object recognition: nice + 19 (the lowest)
+};
+
+// The nice increment of a tier relative to the serving threads.
+int NiceIncrementOf(ThreadTier tier);
+
+// Moves the calling thread (started at the process's priority) to `tier`. Best effort, as
+// LowerCurrentThreadPriority.
+bool RunCurrentThreadAs(ThreadTier tier);
 
 // Lowers the calling thread's scheduling priority (Linux: its nice value by `increment`, 10 by
 // default). Best effort: false when the system refuses, and nothing else changes.

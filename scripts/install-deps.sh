@@ -16,6 +16,8 @@ PACKAGES=(
   libopencv-dev libeigen3-dev libceres-dev liboctomap-dev libpcl-dev
   # storage, hashing, json
   libsqlite3-dev libssl-dev nlohmann-json3-dev
+  # semmapd's allocator (glibc malloc's arena locks stall gRPC's threads under load)
+  libjemalloc-dev
   # logging (levels, one logger for the tree)
   libspdlog-dev
   # image decoding (PNG, JPEG)

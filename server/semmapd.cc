@@ -161,8 +161,8 @@ int CheckVoModel(const std::string& path) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Before any thread starts: sessions and map stages run many threads whose freed memory
-  // would otherwise scatter over up to 8 malloc arenas per core.
+  // Before any thread starts: on glibc malloc, sessions and map stages run many threads whose
+  // freed memory would otherwise scatter over up to 8 malloc arenas per core.
   semmap::LimitAllocatorArenas(4);
   semmap::ArgParser args;
   args.AddFlag("listen", "HOST:PORT",
@@ -288,7 +288,7 @@ int main(int argc, char** argv) {
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
   semmap::SetLogLevel(options.log_level);
-  semmap::LogInfo("starting with {}", options.ToString());
+  semmap::LogInfo("starting with {} (allocator: {})", options.ToString(), semmap::AllocatorName());
   auto server = semmap::SemmapServer::Start(options);
   if (!server.ok()) {
     semmap::LogError("{}", server.status().ToString());

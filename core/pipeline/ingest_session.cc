@@ -74,12 +74,14 @@ StatusOr<std::unique_ptr<IngestSession>> IngestSession::Start(std::shared_ptr<In
   IngestSession* raw = session.get();
   StatusOr<std::thread> decoder = launch([raw] {
     NameCurrentThread("ingest-decode");
+    RunCurrentThreadAs(ThreadTier::kPerFrame);  // below gRPC's threads and the query workers
     raw->RunDecoder();
   });
   if (decoder.ok()) {
     session->decoder_ = std::move(decoder).value();
     StatusOr<std::thread> worker = launch([raw] {
       NameCurrentThread("ingest-track");
+      RunCurrentThreadAs(ThreadTier::kPerFrame);
       raw->Run();
     });
     if (worker.ok()) {

@@ -99,8 +99,8 @@ StatusOr<std::unique_ptr<SlamBackend>> SlamBackend::Start(
   stage.name = "slam back end of map " + std::to_string(map_id);
   stage.thread_name = "slam-backend";
   stage.queue_capacity = options.queue_capacity;
-  // Its corrections keep the trackers right: normal priority, unlike the other map stages.
-  stage.background = false;
+  // Its corrections keep the trackers right: the per-frame tier, above the other map stages.
+  stage.tier = ThreadTier::kPerFrame;
   std::unique_ptr<SlamBackend> backend(
       new SlamBackend(map_id, options, std::move(vocabulary), writer, std::move(stage)));
   if (restore.snapshot) backend->Restore(*restore.snapshot);

@@ -52,5 +52,33 @@ TEST(ThreadPriorityTest, LowersTheCallingThreadOnly) {
   EXPECT_EQ(nice_of_this_thread(), before);
 }
 
+TEST(ThreadPriorityTest, TiersRunServingFirstThenPerFrameThenBackground) {
+  EXPECT_EQ(NiceIncrementOf(ThreadTier::kServing), 0);
+  EXPECT_LT(NiceIncrementOf(ThreadTier::kServing), NiceIncrementOf(ThreadTier::kPerFrame));
+  EXPECT_LT(NiceIncrementOf(ThreadTier::kPerFrame), NiceIncrementOf(ThreadTier::kBackground));
+  EXPECT_LE(NiceIncrementOf(ThreadTier::kBackground), 19);  // the lowest nice value Linux has
+
+  const auto nice_of_this_thread = [] {
+    errno = 0;
+    return getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+  };
+  int serving_before = 0, serving_after = 0, per_frame_before = 0, per_frame_after = 0;
+  bool moved = false;
+  std::thread([&] {
+    serving_before = nice_of_this_thread();
+    EXPECT_TRUE(RunCurrentThreadAs(ThreadTier::kServing));  // nothing to change
+    serving_after = nice_of_this_thread();
+  }).join();
+  std::thread([&] {
+    per_frame_before = nice_of_this_thread();
+    moved = RunCurrentThreadAs(ThreadTier::kPerFrame);
+    per_frame_after = nice_of_this_thread();
+  }).join();
+  EXPECT_EQ(serving_after, serving_before);
+  if (!moved) GTEST_SKIP() << "this system refuses setpriority";
+  EXPECT_EQ(per_frame_after,
+            std::min(per_frame_before + NiceIncrementOf(ThreadTier::kPerFrame), 19));
+}
+
 }  // namespace
 }  // namespace semmap
