@@ -20,6 +20,12 @@ std::string CurrentThreadName() {
   return name;
 }
 
+// The calling thread's nice value (errno cleared: -1 is a valid answer).
+int NiceOfThisThread() {
+  errno = 0;
+  return getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+}
+
 TEST(ThreadPriorityTest, NamesTheCallingThreadOnlyCuttingAt15Bytes) {
   const std::string before = CurrentThreadName();
   std::string inside, cut;
@@ -35,21 +41,17 @@ TEST(ThreadPriorityTest, NamesTheCallingThreadOnlyCuttingAt15Bytes) {
 }
 
 TEST(ThreadPriorityTest, LowersTheCallingThreadOnly) {
-  const auto nice_of_this_thread = [] {
-    errno = 0;
-    return getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
-  };
-  const int before = nice_of_this_thread();
+  const int before = NiceOfThisThread();
   int inside_before = 0, inside_after = 0;
   bool lowered = false;
   std::thread([&] {
-    inside_before = nice_of_this_thread();
+    inside_before = NiceOfThisThread();
     lowered = LowerCurrentThreadPriority(3);
-    inside_after = nice_of_this_thread();
+    inside_after = NiceOfThisThread();
   }).join();
   if (!lowered) GTEST_SKIP() << "this system refuses setpriority";
   EXPECT_EQ(inside_after, std::min(inside_before + 3, 19));
-  EXPECT_EQ(nice_of_this_thread(), before);
+  EXPECT_EQ(NiceOfThisThread(), before);
 }
 
 TEST(ThreadPriorityTest, TiersRunServingFirstThenPerFrameThenBackground) {
@@ -58,21 +60,17 @@ TEST(ThreadPriorityTest, TiersRunServingFirstThenPerFrameThenBackground) {
   EXPECT_LT(NiceIncrementOf(ThreadTier::kPerFrame), NiceIncrementOf(ThreadTier::kBackground));
   EXPECT_LE(NiceIncrementOf(ThreadTier::kBackground), 19);  // the lowest nice value Linux has
 
-  const auto nice_of_this_thread = [] {
-    errno = 0;
-    return getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
-  };
   int serving_before = 0, serving_after = 0, per_frame_before = 0, per_frame_after = 0;
   bool moved = false;
   std::thread([&] {
-    serving_before = nice_of_this_thread();
+    serving_before = NiceOfThisThread();
     EXPECT_TRUE(RunCurrentThreadAs(ThreadTier::kServing));  // nothing to change
-    serving_after = nice_of_this_thread();
+    serving_after = NiceOfThisThread();
   }).join();
   std::thread([&] {
-    per_frame_before = nice_of_this_thread();
+    per_frame_before = NiceOfThisThread();
     moved = RunCurrentThreadAs(ThreadTier::kPerFrame);
-    per_frame_after = nice_of_this_thread();
+    per_frame_after = NiceOfThisThread();
   }).join();
   EXPECT_EQ(serving_after, serving_before);
   if (!moved) GTEST_SKIP() << "this system refuses setpriority";
