@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/sensor/image_decoding.h"
+#include "core/sensor/internal/png_decoders.h"
 
 namespace semmap {
 namespace {
@@ -87,6 +88,49 @@ void BM_DecodeDepthPng(benchmark::State& state) {
   state.SetBytesProcessed(state.iterations() * depth.image.data.size());
 }
 BENCHMARK(BM_DecodeDepthPng)->Unit(benchmark::kMillisecond);
+
+// A real TUM colour (8-bit RGB) and depth (16-bit grey) PNG through both PNG decoders in the
+// same run: the fast path (libdeflate + our row filters) against libpng. Skipped without
+// ../shared/data.
+const std::string kTeddy = std::string(SEMMAP_SHARED_DATA_DIR) + "/tum_fr3_teddy_200/";
+
+template <bool kFast>
+void PngDecoderLoop(benchmark::State& state, const std::string& path, DecodeTarget target) {
+  const std::string bytes = ReadFile(path);
+  StatusOr<CompressedImageInfo> info = ProbeCompressedImage(bytes);
+  if (!info.ok()) {
+    state.SkipWithError((path + " absent or unreadable (needs ../shared/data)").c_str());
+    return;
+  }
+  for (auto _ : state) {
+    if constexpr (kFast) {
+      std::optional<cv::Mat> decoded = sensor_internal::DecodePngFast(bytes, *info, target);
+      if (!decoded) state.SkipWithError("the fast path did not take the image");
+      benchmark::DoNotOptimize(decoded);
+    } else {
+      StatusOr<cv::Mat> decoded = sensor_internal::DecodePngWithLibpng(bytes, *info, target);
+      if (!decoded.ok()) state.SkipWithError(decoded.status().ToString().c_str());
+      benchmark::DoNotOptimize(decoded);
+    }
+  }
+  state.SetBytesProcessed(state.iterations() * static_cast<int64_t>(bytes.size()));
+}
+void BM_TeddyColourPng_Libpng(benchmark::State& state) {
+  PngDecoderLoop<false>(state, kTeddy + "rgb/1341841873.273798.png", DecodeTarget::kColour);
+}
+void BM_TeddyColourPng_Fast(benchmark::State& state) {
+  PngDecoderLoop<true>(state, kTeddy + "rgb/1341841873.273798.png", DecodeTarget::kColour);
+}
+void BM_TeddyDepthPng_Libpng(benchmark::State& state) {
+  PngDecoderLoop<false>(state, kTeddy + "depth/1341841873.273820.png", DecodeTarget::kDepth16);
+}
+void BM_TeddyDepthPng_Fast(benchmark::State& state) {
+  PngDecoderLoop<true>(state, kTeddy + "depth/1341841873.273820.png", DecodeTarget::kDepth16);
+}
+BENCHMARK(BM_TeddyColourPng_Libpng)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TeddyColourPng_Fast)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TeddyDepthPng_Libpng)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TeddyDepthPng_Fast)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace semmap

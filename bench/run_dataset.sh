@@ -62,8 +62,11 @@ cp "$data_dir/semmapd.log" "$OUT/semmapd.log"
 keyframes=$(jq .keyframes <<<"$ingest")
 printf 'frames: %s stored of %s sent, keyframes: %s\n' "$(jq .frames_stored <<<"$ingest")" \
   "$(jq .frames_sent <<<"$ingest")" "$keyframes"
-printf 'end-to-end: %.1f frames/s (%.2f s, client file reading + gRPC + server)\n' \
+printf 'end-to-end: %.1f frames/s (%.2f s, client file reading + gRPC + server, session close included)\n' \
   "$(jq .frames_per_second <<<"$ingest")" "$(jq .seconds <<<"$ingest")"
+printf 'streaming: %.1f frames/s (%.2f s until the last pose came back; then %.2f s to close the session)\n' \
+  "$(jq .streaming_frames_per_second <<<"$ingest")" "$(jq .streaming_seconds <<<"$ingest")" \
+  "$(jq '.seconds - .streaming_seconds' <<<"$ingest")"
 echo "server latency (ms)     p50      p95      max"
 jq -r '.stages | to_entries[] | select(.value.count > 0) |
        "  \(.key)\t\(.value.p50_ms)\t\(.value.p95_ms)\t\(.value.max_ms)"' <<<"$ingest" |

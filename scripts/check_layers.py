@@ -7,7 +7,7 @@ cmake/CoreLayers.cmake). Exit 1 with one line per broken include.
   core/<module>/     common/, storage/, its own module, and core modules of a lower layer:
                      sensor 0 < odometry 1 < slam 2 < mapping 3 | recognition 3 < objects 4
                      < pipeline 5 | query 5; never server/, client/, proto or gRPC
-  core/<m>/internal/ only from core/<m>/ itself (and tests)
+  core/<m>/internal/ only from core/<m>/ itself (and tests and benchmarks)
   server/, client/   may include core/; client/ never includes server/ except serialization
 
 Usage: check_layers.py [ROOT]   (ROOT defaults to the repository this script is in)
@@ -34,9 +34,9 @@ def check_file(rel: pathlib.PurePosixPath, text: str) -> list:
         inc = match.group(1)
         where = f"{rel}:{number}: includes {inc}"
         inc_parts = inc.split("/")
-        # internal/ headers stay inside their module (tests may look inside).
+        # internal/ headers stay inside their module (tests and benchmarks may look inside).
         if (len(inc_parts) > 3 and inc_parts[0] == "core" and inc_parts[2] == "internal"
-                and top != "tests" and not (top == "core" and parts[1] == inc_parts[1])):
+                and top not in ("tests", "bench") and not (top == "core" and parts[1] == inc_parts[1])):
             errors.append(f"{where}: core/{inc_parts[1]}/internal is private to that module")
         if top == "common":
             if inc_parts[0] in ("core", "storage", "server", "client", "tests", "proto"):

@@ -20,8 +20,8 @@ PACKAGES=(
   libjemalloc-dev
   # logging (levels, one logger for the tree)
   libspdlog-dev
-  # image decoding (PNG, JPEG)
-  libpng-dev libjpeg-dev zlib1g-dev
+  # image decoding (PNG, JPEG; libdeflate inflates PNGs on the fast path)
+  libpng-dev libjpeg-dev zlib1g-dev libdeflate-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # scripts: process control, JSON in bench scripts

@@ -108,14 +108,17 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
   ToProto(dataset->camera, start.mutable_camera());
   start.mutable_keyframes()->set_min_motion(args.keyframe_min_motion);
 
-  // Poses the server reports, by seq, for --trajectory-out.
+  // Poses the server reports, by seq, for --trajectory-out; when the last one came (the end of
+  // streaming: what follows is the session's close, e.g. its final bundle adjustment).
   std::mutex acks_mutex;
   std::map<uint64_t, Eigen::Isometry3d> acked;
+  std::chrono::steady_clock::time_point last_ack_at;
   MapClient client = MakeClient(context);
   StatusOr<std::unique_ptr<IngestStream>> stream =
       client.Ingest(start, [&](const v1::FrameAck& ack) {
         std::lock_guard lock(acks_mutex);
         acked[ack.seq()] = ToIsometry(FromProto(ack.t_world_camera()));
+        last_ack_at = std::chrono::steady_clock::now();
       });
   if (!stream.ok()) return ReportError(stream.status());
   if (!context.json) {
@@ -154,8 +157,13 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
   }
   StatusOr<v1::IngestSummary> summary = (*stream)->Finish();
   if (!summary.ok()) return ReportError(summary.status());
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto finished_at = std::chrono::steady_clock::now();
+  const double seconds = std::chrono::duration<double>(finished_at - t0).count();
+  double streaming_seconds = 0;
+  {
+    std::lock_guard lock(acks_mutex);
+    if (!acked.empty()) streaming_seconds = std::chrono::duration<double>(last_ack_at - t0).count();
+  }
 
   if (!args.online_trajectory_out.empty()) {
     std::vector<StampedPose> out;
@@ -181,6 +189,7 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
   }
 
   const double fps = seconds > 0 ? sent / seconds : 0;
+  const double streaming_fps = streaming_seconds > 0 ? sent / streaming_seconds : 0;
   if (context.json) {
     nlohmann::json out = {{"map", summary->map()},
                           {"session", summary->session()},
@@ -192,7 +201,9 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
                           {"new_segments", summary->new_segments()},
                           {"skipped_no_pose", skipped_no_pose},
                           {"seconds", seconds},
-                          {"frames_per_second", fps}};
+                          {"frames_per_second", fps},
+                          {"streaming_seconds", streaming_seconds},
+                          {"streaming_frames_per_second", streaming_fps}};
     out["durable_seq"] = summary->has_durable_seq() ? nlohmann::json(summary->durable_seq())
                                                     : nlohmann::json(nullptr);
     if (!args.trajectory_out.empty()) out["trajectory_out"] = args.trajectory_out;
@@ -208,7 +219,13 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
   } else {
     std::cout << "stored " << summary->frames() << " frames (" << summary->keyframes()
               << " keyframes) in map '" << summary->map() << "' session '" << summary->session()
-              << "' at " << std::fixed << std::setprecision(1) << fps << " frames/s\n";
+              << "' at " << std::fixed << std::setprecision(1) << fps << " frames/s";
+    if (streaming_fps > 0) {
+      std::cout << " (" << streaming_fps << " frames/s until the last frame's pose came back; "
+                << std::setprecision(2) << seconds - streaming_seconds
+                << " s more to close the session)";
+    }
+    std::cout << "\n";
     if (start.mode() == v1::SESSION_MODE_RGBD) {
       std::cout << "tracking lost on " << summary->lost_frames() << " frames ("
                 << summary->new_segments() << " restarts after a loss); "

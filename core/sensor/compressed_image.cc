@@ -9,9 +9,11 @@
 #include <csetjmp>
 #include <cstring>
 #include <exception>
+#include <optional>
 #include <vector>
 
 #include "common/checked_math.h"
+#include "core/sensor/internal/png_decoders.h"
 
 // libpng and libjpeg report errors by longjmp. Every function below that calls setjmp holds only
 // trivially destructible locals and does no C++ allocation between setjmp and the library calls,
@@ -146,8 +148,11 @@ StatusOr<CompressedImageInfo> ProbePng(std::string_view bytes) {
   return info;
 }
 
-StatusOr<cv::Mat> DecodePng(std::string_view bytes, const CompressedImageInfo& info,
-                            DecodeTarget target) {
+}  // namespace
+
+StatusOr<cv::Mat> sensor_internal::DecodePngWithLibpng(std::string_view bytes,
+                                                       const CompressedImageInfo& info,
+                                                       DecodeTarget target) {
   PngReader reader;
   if (!PngCreate(reader, bytes)) return ResourceExhaustedError("cannot start the PNG decoder");
   if (!PngReadInfo(reader)) {
@@ -195,6 +200,8 @@ StatusOr<cv::Mat> DecodePng(std::string_view bytes, const CompressedImageInfo& i
   }
   return std::move(pixels.image);
 }
+
+namespace {
 
 // ---- JPEG ----
 
@@ -349,7 +356,11 @@ StatusOr<CompressedImageInfo> ProbeCompressedImage(std::string_view bytes) {
 
 StatusOr<cv::Mat> DecodeCompressedImage(std::string_view bytes, const CompressedImageInfo& info,
                                         DecodeTarget target) {
-  if (info.format == CompressedFormat::kPng) return DecodePng(bytes, info, target);
+  if (info.format == CompressedFormat::kPng) {
+    std::optional<cv::Mat> fast = sensor_internal::DecodePngFast(bytes, info, target);
+    if (fast) return std::move(*fast);
+    return sensor_internal::DecodePngWithLibpng(bytes, info, target);
+  }
   return DecodeJpeg(bytes, info, target);
 }
 
