@@ -115,22 +115,22 @@ void PngDecoderLoop(benchmark::State& state, const std::string& path, DecodeTarg
   }
   state.SetBytesProcessed(state.iterations() * static_cast<int64_t>(bytes.size()));
 }
-void BM_TeddyColourPng_Libpng(benchmark::State& state) {
+void BM_TeddyColourPngLibpng(benchmark::State& state) {
   PngDecoderLoop<false>(state, kTeddy + "rgb/1341841873.273798.png", DecodeTarget::kColour);
 }
-void BM_TeddyColourPng_Fast(benchmark::State& state) {
+void BM_TeddyColourPngFast(benchmark::State& state) {
   PngDecoderLoop<true>(state, kTeddy + "rgb/1341841873.273798.png", DecodeTarget::kColour);
 }
-void BM_TeddyDepthPng_Libpng(benchmark::State& state) {
+void BM_TeddyDepthPngLibpng(benchmark::State& state) {
   PngDecoderLoop<false>(state, kTeddy + "depth/1341841873.273820.png", DecodeTarget::kDepth16);
 }
-void BM_TeddyDepthPng_Fast(benchmark::State& state) {
+void BM_TeddyDepthPngFast(benchmark::State& state) {
   PngDecoderLoop<true>(state, kTeddy + "depth/1341841873.273820.png", DecodeTarget::kDepth16);
 }
-BENCHMARK(BM_TeddyColourPng_Libpng)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_TeddyColourPng_Fast)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_TeddyDepthPng_Libpng)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_TeddyDepthPng_Fast)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TeddyColourPngLibpng)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TeddyColourPngFast)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TeddyDepthPngLibpng)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TeddyDepthPngFast)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace semmap
