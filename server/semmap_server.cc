@@ -16,6 +16,8 @@
 #include "core/query/store_map_query.h"
 #include "core/slam/bow_vocabulary.h"
 #include "server/server_credentials.h"
+#include "server/server_options.h"
+#include "server/unix_socket_path.h"
 #include "storage/sqlite/sqlite_map_store.h"
 
 namespace semmap {
@@ -160,6 +162,13 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  if (IsUnixSocketAddress(options.listen)) {
+    const Status free = CheckUnixSocketPathFree(options.listen.substr(5));
+    if (!free.ok()) {
+      StopWriterAfterError(*server->writer_);
+      return free;
+    }
+  }
   grpc::ServerBuilder builder;
   builder.AddListeningPort(options.listen, credentials, &server->port_);
   builder.RegisterService(server->service_.get());
@@ -191,6 +200,7 @@ SemmapServer::~SemmapServer() {
 }
 
 std::string SemmapServer::address() const {
+  if (IsUnixSocketAddress(options_.listen)) return options_.listen;
   const std::string host = options_.listen.substr(0, options_.listen.rfind(':'));
   return host + ":" + std::to_string(port_);
 }

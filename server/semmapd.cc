@@ -166,7 +166,9 @@ int main(int argc, char** argv) {
   semmap::LimitAllocatorArenas(4);
   semmap::ArgParser args;
   args.AddFlag("listen", "HOST:PORT",
-               "address to serve on (default 127.0.0.1:50051; port 0 picks one)");
+               "address to serve on (default 127.0.0.1:50051; port 0 picks one), or unix:/PATH "
+               "(a Unix domain socket: for clients on this machine, cheaper than TCP; who may "
+               "connect is the path's file permissions)");
   args.AddFlag("data-dir", "DIR", "where the SQLite database lives (default ./semmap-data)");
   args.AddFlag("tls-cert", "FILE",
                "serve TLS with this PEM certificate chain (with --tls-key; default plaintext)");

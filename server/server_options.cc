@@ -7,18 +7,51 @@ namespace semmap {
 bool IsLoopbackAddress(const std::string& listen) {
   const std::string host = listen.substr(0, listen.rfind(':'));
   return host == "localhost" || host == "[::1]" || host.rfind("127.", 0) == 0 ||
-         listen.rfind("unix:", 0) == 0;
+         IsUnixSocketAddress(listen);
 }
 
-Status ServerOptions::Validate() const {
-  const size_t colon = listen.rfind(':');
-  if (listen.empty() || colon == std::string::npos || colon == 0) {
-    return InvalidArgumentError("--listen must be HOST:PORT (got '" + listen + "')");
+bool IsUnixSocketAddress(const std::string& listen) { return listen.rfind("unix:", 0) == 0; }
+
+namespace {
+
+// unix:/absolute/path: the path must fit a sockaddr_un (108 bytes with its NUL).
+constexpr size_t kMaxUnixPathBytes = 107;
+
+Status ValidateUnixSocketAddress(const std::string& listen) {
+  const std::string path = listen.substr(5);
+  if (path.empty() || path.front() != '/') {
+    return InvalidArgumentError(
+        "--listen unix: wants an absolute path, e.g. unix:/run/semmap/semmapd.sock (got '" +
+        listen + "')");
   }
-  const std::string port = listen.substr(colon + 1);
-  if (port.empty() || port.size() > 5 ||
-      port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) > 65535) {
-    return InvalidArgumentError("--listen port must be a number in 0..65535 (got '" + port + "')");
+  if (path.size() > kMaxUnixPathBytes) {
+    return InvalidArgumentError("--listen unix socket path is " + std::to_string(path.size()) +
+                                " bytes; Linux allows at most " +
+                                std::to_string(kMaxUnixPathBytes));
+  }
+  if (path.find_first_of(std::string("\0\n", 2)) != std::string::npos) {
+    return InvalidArgumentError("--listen unix socket path has a NUL or newline");
+  }
+  return OkStatus();
+}
+
+}  // namespace
+
+Status ServerOptions::Validate() const {
+  if (IsUnixSocketAddress(listen)) {
+    SEMMAP_RETURN_IF_ERROR(ValidateUnixSocketAddress(listen));
+  } else {
+    const size_t colon = listen.rfind(':');
+    if (listen.empty() || colon == std::string::npos || colon == 0) {
+      return InvalidArgumentError("--listen must be HOST:PORT or unix:/PATH (got '" + listen +
+                                  "')");
+    }
+    const std::string port = listen.substr(colon + 1);
+    if (port.empty() || port.size() > 5 ||
+        port.find_first_not_of("0123456789") != std::string::npos || std::stoi(port) > 65535) {
+      return InvalidArgumentError("--listen port must be a number in 0..65535 (got '" + port +
+                                  "')");
+    }
   }
   if (data_dir.empty()) return InvalidArgumentError("--data-dir must not be empty");
   if (tls_cert_file.empty() != tls_key_file.empty()) {

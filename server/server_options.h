@@ -13,6 +13,8 @@ namespace semmap {
 
 // Whether HOST:PORT names this machine only: 127.x, localhost, [::1], unix:.
 bool IsLoopbackAddress(const std::string& listen);
+// unix:/PATH: a Unix domain socket on this machine (who may connect is the path's permissions).
+bool IsUnixSocketAddress(const std::string& listen);
 
 struct ServerOptions {
   // Library defaults, except what a long-running server wants: compact keyframe clouds.

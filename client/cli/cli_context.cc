@@ -7,7 +7,8 @@ namespace semmap::cli {
 
 void AddCommonFlags(ArgParser& parser, bool uses_server) {
   if (uses_server) {
-    parser.AddFlag("server", "HOST:PORT", "semmapd address (default 127.0.0.1:50051)");
+    parser.AddFlag("server", "HOST:PORT",
+                   "semmapd address (default 127.0.0.1:50051), or unix:/PATH for its Unix socket");
     parser.AddFlag("tls-ca", "FILE", "connect with TLS, trusting this PEM CA (default plaintext)");
     parser.AddFlag("tls-cert", "FILE",
                    "mutual TLS: this client's PEM certificate (with --tls-key)");

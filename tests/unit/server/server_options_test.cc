@@ -19,6 +19,20 @@ TEST(ServerOptionsTest, ListenAddressIsChecked) {
   }
 }
 
+TEST(ServerOptionsTest, UnixSocketPathsAreAbsoluteAndFitASocketAddress) {
+  ServerOptions o;
+  o.listen = "unix:/run/semmap/semmapd.sock";
+  EXPECT_TRUE(o.Validate().ok());  // loopback: no TLS asked for
+  EXPECT_TRUE(IsUnixSocketAddress(o.listen));
+  for (const std::string& bad : {std::string("unix:"), std::string("unix:relative.sock"),
+                                 "unix:/" + std::string(107, 'a'), std::string("unix:/tmp/a\nb")}) {
+    o.listen = bad;
+    EXPECT_EQ(o.Validate().code(), StatusCode::kInvalidArgument) << bad;
+  }
+  o.listen = "unix:/" + std::string(106, 'a');  // 107 bytes with the slash: the most that fits
+  EXPECT_TRUE(o.Validate().ok());
+}
+
 TEST(ServerOptionsTest, PlaintextOffLoopbackNeedsAllowInsecure) {
   ServerOptions o;
   o.listen = "0.0.0.0:50051";
