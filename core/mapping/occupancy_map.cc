@@ -5,18 +5,25 @@
 
 #include <algorithm>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <exception>
+#include <functional>
 #include <limits>
 #include <new>
 #include <optional>
 #include <sstream>
+#include <system_error>
+#include <thread>
 #include <unordered_map>
 #include <vector>
 
 #include "common/checked_math.h"
+#include "common/thread_annotations.h"
+#include "common/thread_priority.h"
 
 namespace semmap {
 namespace {
@@ -243,6 +250,167 @@ void UpdateInnerColours(octomap::ColorOcTree& tree,
   if (root != nullptr && tree.nodeHasChildren(root)) root->updateColorChildren();
 }
 
+// One keyframe's insertion worked out without touching the tree's nodes: the voxels its rays
+// pass through (free) and end in (occupied), as OccupancyOcTreeBase::insertPointCloud computes
+// them, and its end voxels' colours. Only the tree's resolution is read (OctoMap keeps ray
+// scratch per tree), so a rebuild prepares the next keyframes on another thread, with a tree of
+// its own, while this one is applied.
+struct PreparedScan {
+  octomap::KeySet free_cells, occupied_cells;
+  std::vector<EndPoint> ends;  // sorted by code: a voxel's points adjacent
+};
+
+Status PrepareScan(octomap::ColorOcTree& key_tree, const OccupancyMapOptions& options,
+                   const KeyframeCloud& cloud, const Eigen::Isometry3d& T_world_keyframe,
+                   PreparedScan* out) {
+  if (!Finite(T_world_keyframe)) return InvalidArgumentError("keyframe pose is not finite");
+  if (cloud.colours.size() != cloud.points.size()) {
+    return InvalidArgumentError("keyframe cloud has " + std::to_string(cloud.points.size()) +
+                                " points but " + std::to_string(cloud.colours.size()) + " colours");
+  }
+  // OctoMap keys cover +-2^15 voxels around the origin; keep every ray inside.
+  const double half_extent = options.resolution_m * 32768.0 * 0.99 - options.max_range_m;
+  if (T_world_keyframe.translation().cwiseAbs().maxCoeff() > half_extent) {
+    return OutOfRangeError("keyframe pose is outside the occupancy map's extent");
+  }
+  try {
+    octomap::Pointcloud scan;
+    scan.reserve(cloud.points.size());
+    // Each end voxel gets the mean colour of the keyframe's points in it, once: one tree
+    // search per voxel rather than per point, and not an order-dependent running average.
+    out->ends.reserve(cloud.points.size());
+    const Eigen::Matrix3f R = T_world_keyframe.linear().cast<float>();
+    const Eigen::Vector3f t = T_world_keyframe.translation().cast<float>();
+    for (size_t i = 0; i < cloud.points.size(); ++i) {
+      const Eigen::Vector3f& p = cloud.points[i];
+      if (!p.allFinite() || p.squaredNorm() > options.max_range_m * options.max_range_m) {
+        continue;
+      }
+      const Eigen::Vector3f w = R * p + t;
+      const octomap::point3d q(w.x(), w.y(), w.z());
+      scan.push_back(q);
+      // The same float point OctoMap keys (computeDiscreteUpdate), so the same end voxel.
+      octomap::OcTreeKey key;
+      if (!key_tree.coordToKeyChecked(q, key)) continue;
+      const std::array<uint8_t, 3>& bgr = cloud.colours[i];
+      out->ends.push_back({Morton(key), key, {bgr[2], bgr[1], bgr[0]}});
+    }
+    std::sort(out->ends.begin(), out->ends.end(),
+              [](const EndPoint& a, const EndPoint& b) { return a.code < b.code; });
+    const octomap::point3d origin(t.x(), t.y(), t.z());
+    if (options.discretize) {
+      key_tree.computeDiscreteUpdate(scan, origin, out->free_cells, out->occupied_cells,
+                                     options.max_range_m);
+    } else {
+      key_tree.computeUpdate(scan, origin, out->free_cells, out->occupied_cells,
+                             options.max_range_m);
+    }
+  } catch (const std::bad_alloc&) {
+    return ResourceExhaustedError("occupancy map insertion: out of memory");
+  } catch (const std::exception& e) {
+    return InternalError(std::string("occupancy map insertion: ") + e.what());
+  }
+  return OkStatus();
+}
+
+// Applies a prepared keyframe: free then occupied updates as insertPointCloud makes them (inner
+// nodes kept current), then the end voxels' colours and their ancestors'.
+Status ApplyScan(octomap::ColorOcTree& tree, const PreparedScan& scan) {
+  try {
+    for (const octomap::OcTreeKey& key : scan.free_cells) tree.updateNode(key, false, false);
+    for (const octomap::OcTreeKey& key : scan.occupied_cells) tree.updateNode(key, true, false);
+    const std::vector<EndPoint>& ends = scan.ends;
+    std::vector<std::pair<uint64_t, octomap::OcTreeKey>> voxels;
+    voxels.reserve(ends.size());
+    for (size_t begin = 0, end = 0; begin < ends.size(); begin = end) {
+      std::array<uint32_t, 3> sum{};
+      for (end = begin; end < ends.size() && ends[end].code == ends[begin].code; ++end) {
+        for (size_t c = 0; c < 3; ++c) sum[c] += ends[end].rgb[c];
+      }
+      const auto n = static_cast<uint32_t>(end - begin);
+      auto mean = [&](size_t c) { return static_cast<uint8_t>((sum[c] + n / 2) / n); };
+      tree.averageNodeColor(ends[begin].key, mean(0), mean(1), mean(2));
+      voxels.emplace_back(ends[begin].code, ends[begin].key);
+    }
+    UpdateInnerColours(tree, std::move(voxels));
+  } catch (const std::bad_alloc&) {
+    return ResourceExhaustedError("occupancy map insertion: out of memory");
+  } catch (const std::exception& e) {
+    return InternalError(std::string("occupancy map insertion: ") + e.what());
+  }
+  return OkStatus();
+}
+
+// Prepares keyframes [0, n) in order on a thread of its own, at most kAhead ahead of the
+// consumer (each prepared scan holds a few MB of keys). Stopped and joined on destruction.
+class ScanPrefetcher {
+ public:
+  using Prepare = std::function<Status(octomap::ColorOcTree&, size_t, PreparedScan*)>;
+
+  ScanPrefetcher(size_t n, double resolution_m, Prepare prepare)
+      : n_(n), resolution_m_(resolution_m), prepare_(std::move(prepare)) {
+    thread_ = std::thread([this] { Run(); });
+  }
+  ScanPrefetcher(const ScanPrefetcher&) = delete;
+  ScanPrefetcher& operator=(const ScanPrefetcher&) = delete;
+  ~ScanPrefetcher() {
+    {
+      MutexLock lock(mutex_);
+      stop_ = true;
+      changed_.notify_all();
+    }
+    thread_.join();
+  }
+
+  // The next keyframe's scan, in order; its preparation's error when it failed.
+  Status Next(PreparedScan* scan) {
+    MutexLock lock(mutex_);
+    while (ready_.empty()) changed_.wait(lock);
+    Slot slot = std::move(ready_.front());
+    ready_.pop_front();
+    changed_.notify_all();
+    *scan = std::move(slot.scan);
+    return slot.status;
+  }
+
+ private:
+  static constexpr size_t kAhead = 2;
+  struct Slot {
+    Status status;
+    PreparedScan scan;
+  };
+
+  void Run() {
+    NameCurrentThread("layer-rays");
+    std::optional<octomap::ColorOcTree> key_tree;
+    for (size_t i = 0; i < n_; ++i) {
+      Slot slot;
+      try {
+        if (!key_tree) key_tree.emplace(resolution_m_);
+        slot.status = prepare_(*key_tree, i, &slot.scan);
+      } catch (const std::bad_alloc&) {
+        slot.status = ResourceExhaustedError("occupancy map build: out of memory");
+      }
+      const bool failed = !slot.status.ok();
+      MutexLock lock(mutex_);
+      while (!stop_ && ready_.size() >= kAhead) changed_.wait(lock);
+      if (stop_) return;
+      ready_.push_back(std::move(slot));
+      changed_.notify_all();
+      if (failed) return;  // the consumer stops at this one
+    }
+  }
+
+  const size_t n_;
+  const double resolution_m_;
+  const Prepare prepare_;
+  Mutex mutex_;
+  std::condition_variable_any changed_;  // waits on a MutexLock
+  std::deque<Slot> ready_ SEMMAP_GUARDED_BY(mutex_);
+  bool stop_ SEMMAP_GUARDED_BY(mutex_) = false;
+  std::thread thread_;  // last: started once the members above exist
+};
+
 std::array<uint8_t, 3> Rgb(const octomap::ColorOcTreeNode& node) {
   const octomap::ColorOcTreeNode::Color c = node.getColor();
   return {c.r, c.g, c.b};
@@ -396,75 +564,46 @@ StatusOr<OccupancyMap> OccupancyMap::Build(
     const OccupancyMapOptions& options, const CancelCheck& cancel) {
   SEMMAP_ASSIGN_OR_RETURN(OccupancyMap map, Create(options));
   for (size_t i = 0; i < keyframes.size(); ++i) {
-    SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
     if (keyframes[i].first == nullptr) {
       return InvalidArgumentError("occupancy map build: keyframe " + std::to_string(i) +
                                   " has no cloud");
     }
-    SEMMAP_RETURN_IF_ERROR(map.Insert(*keyframes[i].first, keyframes[i].second)
-                               .WithContext("keyframe " + std::to_string(i)));
+  }
+  if (keyframes.size() < 2) {
+    for (size_t i = 0; i < keyframes.size(); ++i) {
+      SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
+      SEMMAP_RETURN_IF_ERROR(map.Insert(*keyframes[i].first, keyframes[i].second)
+                                 .WithContext("keyframe " + std::to_string(i)));
+    }
+    return map;
+  }
+  // The rays of the next keyframes are cast on a second thread while this one's updates go
+  // into the tree (ray casting is about half an insertion): the same updates in the same order
+  // as inserting one after another, so the same tree.
+  std::optional<ScanPrefetcher> prefetcher;
+  try {
+    prefetcher.emplace(keyframes.size(), options.resolution_m,
+                       [&](octomap::ColorOcTree& key_tree, size_t i, PreparedScan* scan) {
+                         return PrepareScan(key_tree, options, *keyframes[i].first,
+                                            keyframes[i].second, scan);
+                       });
+  } catch (const std::system_error& e) {
+    return ResourceExhaustedError(std::string("occupancy map build: no thread: ") + e.what());
+  }
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
+    PreparedScan scan;
+    SEMMAP_RETURN_IF_ERROR(prefetcher->Next(&scan).WithContext("keyframe " + std::to_string(i)));
+    SEMMAP_RETURN_IF_ERROR(
+        ApplyScan(*map.tree_, scan).WithContext("keyframe " + std::to_string(i)));
   }
   return map;
 }
 
 Status OccupancyMap::Insert(const KeyframeCloud& cloud, const Eigen::Isometry3d& T_world_keyframe) {
-  if (!Finite(T_world_keyframe)) return InvalidArgumentError("keyframe pose is not finite");
-  if (cloud.colours.size() != cloud.points.size()) {
-    return InvalidArgumentError("keyframe cloud has " + std::to_string(cloud.points.size()) +
-                                " points but " + std::to_string(cloud.colours.size()) + " colours");
-  }
-  // OctoMap keys cover +-2^15 voxels around the origin; keep every ray inside.
-  const double half_extent = options_.resolution_m * 32768.0 * 0.99 - options_.max_range_m;
-  if (T_world_keyframe.translation().cwiseAbs().maxCoeff() > half_extent) {
-    return OutOfRangeError("keyframe pose is outside the occupancy map's extent");
-  }
-  try {
-    octomap::Pointcloud scan;
-    scan.reserve(cloud.points.size());
-    // Each end voxel gets the mean colour of the keyframe's points in it, once: one tree
-    // search per voxel rather than per point, and not an order-dependent running average.
-    std::vector<EndPoint> ends;
-    ends.reserve(cloud.points.size());
-    const Eigen::Matrix3f R = T_world_keyframe.linear().cast<float>();
-    const Eigen::Vector3f t = T_world_keyframe.translation().cast<float>();
-    for (size_t i = 0; i < cloud.points.size(); ++i) {
-      const Eigen::Vector3f& p = cloud.points[i];
-      if (!p.allFinite() || p.squaredNorm() > options_.max_range_m * options_.max_range_m) {
-        continue;
-      }
-      const Eigen::Vector3f w = R * p + t;
-      const octomap::point3d q(w.x(), w.y(), w.z());
-      scan.push_back(q);
-      // The same float point OctoMap keys (computeDiscreteUpdate), so the same end voxel.
-      octomap::OcTreeKey key;
-      if (!tree_->coordToKeyChecked(q, key)) continue;
-      const std::array<uint8_t, 3>& bgr = cloud.colours[i];
-      ends.push_back({Morton(key), key, {bgr[2], bgr[1], bgr[0]}});
-    }
-    std::sort(ends.begin(), ends.end(),
-              [](const EndPoint& a, const EndPoint& b) { return a.code < b.code; });
-    const octomap::point3d origin(t.x(), t.y(), t.z());
-    tree_->insertPointCloud(scan, origin, options_.max_range_m, /*lazy_eval=*/false,
-                            options_.discretize);
-    std::vector<std::pair<uint64_t, octomap::OcTreeKey>> voxels;
-    voxels.reserve(ends.size());
-    for (size_t begin = 0, end = 0; begin < ends.size(); begin = end) {
-      std::array<uint32_t, 3> sum{};
-      for (end = begin; end < ends.size() && ends[end].code == ends[begin].code; ++end) {
-        for (size_t c = 0; c < 3; ++c) sum[c] += ends[end].rgb[c];
-      }
-      const auto n = static_cast<uint32_t>(end - begin);
-      auto mean = [&](size_t c) { return static_cast<uint8_t>((sum[c] + n / 2) / n); };
-      tree_->averageNodeColor(ends[begin].key, mean(0), mean(1), mean(2));
-      voxels.emplace_back(ends[begin].code, ends[begin].key);
-    }
-    UpdateInnerColours(*tree_, std::move(voxels));
-  } catch (const std::bad_alloc&) {
-    return ResourceExhaustedError("occupancy map insertion: out of memory");
-  } catch (const std::exception& e) {
-    return InternalError(std::string("occupancy map insertion: ") + e.what());
-  }
-  return OkStatus();
+  PreparedScan scan;
+  SEMMAP_RETURN_IF_ERROR(PrepareScan(*tree_, options_, cloud, T_world_keyframe, &scan));
+  return ApplyScan(*tree_, scan);
 }
 
 VoxelState OccupancyMap::Occupancy(const Eigen::Vector3d& p_world) const {

@@ -661,6 +661,36 @@ TEST(OccupancyMapTest, EmptyMapRoundTrips) {
   EXPECT_EQ(OccupancyMap::DeserializeOt(*ot + "x").status().code(), StatusCode::kDataLoss);
 }
 
+// Build() casts the next keyframes' rays on a second thread: the tree must be the one inserting
+// them one after another gives, byte for byte (occupancy, colours, structure).
+TEST_F(OccupancyMapRoomTest, BuildEqualsInsertingOneAfterAnother) {
+  StatusOr<OccupancyMap> sequential = OccupancyMap::Create({});
+  ASSERT_TRUE(sequential.ok());
+  for (const auto& [cloud, T] : AtPoses(*room_keyframes, Eigen::Isometry3d::Identity())) {
+    ASSERT_TRUE(sequential->Insert(*cloud, T).ok());
+  }
+  EXPECT_EQ(*sequential->SerializeOt(), *room_map->SerializeOt());
+}
+
+TEST_F(OccupancyMapRoomTest, BuildStopsAtAFailingKeyframeOrACancel) {
+  auto keyframes = AtPoses(*room_keyframes, Eigen::Isometry3d::Identity());
+  ASSERT_GT(keyframes.size(), 6u);
+  keyframes[5].second = Eigen::Isometry3d(Eigen::Translation3d(5000, 0, 0));
+  const Status failed = OccupancyMap::Build(keyframes, {}).status();
+  EXPECT_EQ(failed.code(), StatusCode::kOutOfRange) << failed.ToString();
+  EXPECT_NE(failed.message().find("keyframe 5"), std::string::npos) << failed.ToString();
+
+  int asked = 0;
+  const CancelCheck cancel = [&]() -> Status {
+    return ++asked > 3 ? CancelledError("rebuild superseded") : OkStatus();
+  };
+  const Status cancelled =
+      OccupancyMap::Build(AtPoses(*room_keyframes, Eigen::Isometry3d::Identity()), {}, cancel)
+          .status();
+  EXPECT_EQ(cancelled.code(), StatusCode::kCancelled) << cancelled.ToString();
+  EXPECT_EQ(asked, 4);
+}
+
 TEST(OccupancyMapTest, BadInputsAreErrors) {
   StatusOr<OccupancyMap> map = OccupancyMap::Create({});
   ASSERT_TRUE(map.ok());
