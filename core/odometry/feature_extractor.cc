@@ -116,9 +116,10 @@ StatusOr<FeatureExtractor> FeatureExtractor::Create(const FeatureExtractorOption
     cv::Ptr<cv::Feature2D> detector;
     switch (options.type) {
       case FeatureType::kOrb:
-        // Describes the keypoints internal::DetectOrbKeypoints finds (its detection unused).
+        // Only describes what internal::DetectOrbKeypoints finds, one pyramid level at a time
+        // (internal::DescribeOrbKeypoints): hence one level, the other settings the extractor's.
         detector = cv::ORB::create(candidates, static_cast<float>(options.orb_scale_factor),
-                                   options.orb_levels, internal::kOrbEdge, /*firstLevel=*/0,
+                                   /*nlevels=*/1, internal::kOrbEdge, /*firstLevel=*/0,
                                    /*WTA_K=*/2, cv::ORB::HARRIS_SCORE, internal::kOrbPatchSize,
                                    options.orb_fast_threshold);
         break;
@@ -215,10 +216,15 @@ StatusOr<FrameFeatures> FeatureExtractor::Extract(const cv::Mat& image, const cv
     }
     out.keypoints = BucketKeypoints(std::move(candidates), grey.cols, grey.rows, options_.grid_cols,
                                     options_.grid_rows, options_.max_features);
-    if (pyramid) internal::OrientOrbKeypoints(*pyramid, &out.keypoints);  // the kept ones only
-    // compute() may drop keypoints it cannot describe (too near the border); the rest stay
-    // aligned with the descriptor rows.
-    detector_->compute(grey, out.keypoints, out.descriptors);
+    // Describing may drop keypoints it cannot (too near a border); the rest stay aligned with
+    // the descriptor rows.
+    if (pyramid) {
+      internal::OrientOrbKeypoints(*pyramid, &out.keypoints);  // the kept ones only
+      internal::DescribeOrbKeypoints(*pyramid, static_cast<float>(options_.orb_scale_factor),
+                                     *detector_, &out.keypoints, &out.descriptors);
+    } else {
+      detector_->compute(grey, out.keypoints, out.descriptors);
+    }
   } catch (const cv::Exception& e) {
     return InternalError(std::string("feature extraction: ") + e.what());
   }

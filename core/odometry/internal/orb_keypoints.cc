@@ -234,4 +234,48 @@ void KeepWithinLevelBudgets(const std::vector<cv::KeyPoint>& strong,
   *weak = std::move(kept);
 }
 
+void DescribeOrbKeypoints(const OrbPyramid& pyramid, float scale_factor,
+                          cv::Feature2D& one_level_orb, std::vector<cv::KeyPoint>* keypoints,
+                          cv::Mat* descriptors) {
+  std::vector<cv::KeyPoint>& all = *keypoints;
+  std::vector<cv::Mat> rows(all.size());  // each keypoint's descriptor, empty when dropped
+  for (size_t level = 0; level < pyramid.levels.size(); ++level) {
+    // cv::ORB's getScale(): pow of the float factor in double, then float.
+    const float inverse = 1.f / static_cast<float>(std::pow(static_cast<double>(scale_factor),
+                                                            static_cast<double>(level)));
+    std::vector<cv::KeyPoint> here;
+    std::vector<size_t> index;
+    for (size_t i = 0; i < all.size(); ++i) {
+      if (all[i].octave != static_cast<int>(level)) continue;
+      cv::KeyPoint k = all[i];
+      k.pt = k.pt * inverse;
+      k.size *= inverse;
+      k.octave = 0;
+      here.push_back(k);
+      index.push_back(i);
+    }
+    if (here.empty()) continue;
+    const std::vector<cv::KeyPoint> asked = here;
+    cv::Mat described;
+    one_level_orb.compute(pyramid.levels[level], here, described);
+    // compute() keeps the order of what it keeps: match the survivors back by position.
+    for (size_t j = 0, r = 0; j < asked.size() && r < here.size(); ++j) {
+      if (asked[j].pt != here[r].pt) continue;  // dropped
+      rows[index[j]] = described.row(static_cast<int>(r));
+      ++r;
+    }
+  }
+  std::vector<cv::KeyPoint> kept;
+  kept.reserve(all.size());
+  cv::Mat out(0, one_level_orb.descriptorSize(), one_level_orb.descriptorType());
+  out.reserve(all.size());
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (rows[i].empty()) continue;
+    kept.push_back(all[i]);
+    out.push_back(rows[i]);
+  }
+  all = std::move(kept);
+  *descriptors = std::move(out);
+}
+
 }  // namespace semmap::internal

@@ -5,7 +5,10 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <set>
+#include <string>
 #include <tuple>
 #include <vector>
 
@@ -77,6 +80,74 @@ TEST(OrbKeypointsTest, SameKeypointsAsCvOrbDetect) {
     EXPECT_FLOAT_EQ(it->second.size, r.size);
   }
   EXPECT_GT(common, reference.size() * 97 / 100) << common << " of " << reference.size();
+}
+
+// Descriptors from the frame's own pyramid, a level at a time, must be cv::ORB::compute()'s to
+// the bit: the place-recognition vocabulary and every stored keyframe were made with it.
+void ExpectDescriptorsOfCvOrbCompute(const cv::Mat& grey, const std::string& what) {
+  const cv::Ptr<cv::ORB> full =
+      cv::ORB::create(1000, 1.2f, 4, kOrbEdge, 0, 2, cv::ORB::HARRIS_SCORE, kOrbPatchSize, 20);
+  const cv::Ptr<cv::ORB> one_level =
+      cv::ORB::create(1000, 1.2f, 1, kOrbEdge, 0, 2, cv::ORB::HARRIS_SCORE, kOrbPatchSize, 20);
+  const OrbPyramid pyramid = BuildOrbPyramid(grey, 4, 1.2);
+  std::vector<cv::KeyPoint> keypoints =
+      DetectOrbKeypoints(pyramid, 20, OrbLevelBudgets(1000, 4, 1.2), {});
+  OrientOrbKeypoints(pyramid, &keypoints);
+  std::vector<cv::KeyPoint> reference = keypoints;
+  cv::Mat expected;
+  full->compute(grey, reference, expected);
+  cv::Mat ours;
+  DescribeOrbKeypoints(pyramid, 1.2f, *one_level, &keypoints, &ours);
+  ASSERT_EQ(keypoints.size(), reference.size()) << what;
+  ASSERT_EQ(ours.rows, expected.rows) << what;
+  ASSERT_GT(ours.rows, 300) << what;
+  std::set<int> levels;
+  for (size_t i = 0; i < keypoints.size(); ++i) {
+    ASSERT_EQ(keypoints[i].pt, reference[i].pt) << what;
+    levels.insert(keypoints[i].octave);
+  }
+  EXPECT_EQ(levels.size(), 4u) << what;
+  EXPECT_EQ(cv::norm(ours, expected, cv::NORM_HAMMING), 0) << what;
+}
+
+TEST(OrbKeypointsTest, LevelByLevelDescriptorsAreCvOrbComputes) {
+  ExpectDescriptorsOfCvOrbCompute(RenderedGrey(), "synthetic frame");
+  const std::string teddy = std::string(SEMMAP_SHARED_DATA_DIR) + "/tum_fr3_teddy_200/rgb/";
+  for (const char* name : {"1341841873.273798.png", "1341841878.294986.png"}) {
+    const cv::Mat grey = cv::imread(teddy + name, cv::IMREAD_GRAYSCALE);
+    if (grey.empty()) GTEST_SKIP() << teddy << name << " absent (../shared/data)";
+    ExpectDescriptorsOfCvOrbCompute(grey, name);
+  }
+}
+
+TEST(OrbKeypointsTest, KeypointsALevelCannotDescribeAreDroppedTheRestStayAligned) {
+  const cv::Mat grey = RenderedGrey();
+  const cv::Ptr<cv::ORB> one_level =
+      cv::ORB::create(1000, 1.2f, 1, kOrbEdge, 0, 2, cv::ORB::HARRIS_SCORE, kOrbPatchSize, 20);
+  const OrbPyramid pyramid = BuildOrbPyramid(grey, 4, 1.2);
+  std::vector<cv::KeyPoint> keypoints =
+      DetectOrbKeypoints(pyramid, 20, OrbLevelBudgets(1000, 4, 1.2), {});
+  OrientOrbKeypoints(pyramid, &keypoints);
+  ASSERT_GT(keypoints.size(), 10u);
+  cv::Mat before;
+  std::vector<cv::KeyPoint> untouched = keypoints;
+  DescribeOrbKeypoints(pyramid, 1.2f, *one_level, &untouched, &before);
+  // Keypoint 3 moved onto level 2's border: nothing to describe there.
+  std::vector<cv::KeyPoint> with_bad = keypoints;
+  with_bad[3].octave = 2;
+  with_bad[3].pt = cv::Point2f(1.0f, 1.0f);
+  cv::Mat after;
+  DescribeOrbKeypoints(pyramid, 1.2f, *one_level, &with_bad, &after);
+  ASSERT_EQ(with_bad.size(), untouched.size() - 1);
+  ASSERT_EQ(after.rows, before.rows - 1);
+  for (size_t i = 0, j = 0; i < untouched.size(); ++i) {
+    if (i == 3) continue;
+    ASSERT_EQ(with_bad[j].pt, untouched[i].pt);
+    EXPECT_EQ(
+        cv::norm(after.row(static_cast<int>(j)), before.row(static_cast<int>(i)), cv::NORM_HAMMING),
+        0);
+    ++j;
+  }
 }
 
 TEST(OrbKeypointsTest, RegionsKeepOnlyTheirOwnCornersOnce) {
