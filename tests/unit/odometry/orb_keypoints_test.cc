@@ -82,17 +82,29 @@ TEST(OrbKeypointsTest, SameKeypointsAsCvOrbDetect) {
   EXPECT_GT(common, reference.size() * 97 / 100) << common << " of " << reference.size();
 }
 
+// The extractor's ORB settings with `levels` pyramid levels.
+cv::Ptr<cv::ORB> Orb(int levels) {
+  return cv::ORB::create(1000, 1.2f, levels, kOrbEdge, 0, 2, cv::ORB::HARRIS_SCORE, kOrbPatchSize,
+                         20);
+}
+
+// A frame's 4-level pyramid and its detected, oriented keypoints.
+struct DetectedFrame {
+  OrbPyramid pyramid;
+  std::vector<cv::KeyPoint> keypoints;
+};
+DetectedFrame Detect(const cv::Mat& grey) {
+  DetectedFrame out{BuildOrbPyramid(grey, 4, 1.2), {}};
+  out.keypoints = DetectOrbKeypoints(out.pyramid, 20, OrbLevelBudgets(1000, 4, 1.2), {});
+  OrientOrbKeypoints(out.pyramid, &out.keypoints);
+  return out;
+}
+
 // Descriptors from the frame's own pyramid, a level at a time, must be cv::ORB::compute()'s to
 // the bit: the place-recognition vocabulary and every stored keyframe were made with it.
 void ExpectDescriptorsOfCvOrbCompute(const cv::Mat& grey, const std::string& what) {
-  const cv::Ptr<cv::ORB> full =
-      cv::ORB::create(1000, 1.2f, 4, kOrbEdge, 0, 2, cv::ORB::HARRIS_SCORE, kOrbPatchSize, 20);
-  const cv::Ptr<cv::ORB> one_level =
-      cv::ORB::create(1000, 1.2f, 1, kOrbEdge, 0, 2, cv::ORB::HARRIS_SCORE, kOrbPatchSize, 20);
-  const OrbPyramid pyramid = BuildOrbPyramid(grey, 4, 1.2);
-  std::vector<cv::KeyPoint> keypoints =
-      DetectOrbKeypoints(pyramid, 20, OrbLevelBudgets(1000, 4, 1.2), {});
-  OrientOrbKeypoints(pyramid, &keypoints);
+  const cv::Ptr<cv::ORB> full = Orb(4), one_level = Orb(1);
+  auto [pyramid, keypoints] = Detect(grey);
   std::vector<cv::KeyPoint> reference = keypoints;
   cv::Mat expected;
   full->compute(grey, reference, expected);
@@ -121,13 +133,8 @@ TEST(OrbKeypointsTest, LevelByLevelDescriptorsAreCvOrbComputes) {
 }
 
 TEST(OrbKeypointsTest, KeypointsALevelCannotDescribeAreDroppedTheRestStayAligned) {
-  const cv::Mat grey = RenderedGrey();
-  const cv::Ptr<cv::ORB> one_level =
-      cv::ORB::create(1000, 1.2f, 1, kOrbEdge, 0, 2, cv::ORB::HARRIS_SCORE, kOrbPatchSize, 20);
-  const OrbPyramid pyramid = BuildOrbPyramid(grey, 4, 1.2);
-  std::vector<cv::KeyPoint> keypoints =
-      DetectOrbKeypoints(pyramid, 20, OrbLevelBudgets(1000, 4, 1.2), {});
-  OrientOrbKeypoints(pyramid, &keypoints);
+  const cv::Ptr<cv::ORB> one_level = Orb(1);
+  const auto [pyramid, keypoints] = Detect(RenderedGrey());
   ASSERT_GT(keypoints.size(), 10u);
   cv::Mat before;
   std::vector<cv::KeyPoint> untouched = keypoints;
