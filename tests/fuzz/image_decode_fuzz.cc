@@ -7,8 +7,6 @@
 // zlib streams, so two selector bits let mutations reach the pixels: 64, the input is a PNG's
 // filtered rows after a 3-byte header (width, height, layout) and the harness writes the PNG
 // around them; 32, the input is a PNG whose chunk CRCs the harness recomputes.
-#include <libdeflate.h>
-
 #include <array>
 #include <cstdint>
 #include <cstring>
@@ -20,6 +18,7 @@
 #include "core/sensor/image_decoding.h"
 #include "core/sensor/internal/png_decoders.h"
 #include "tests/fuzz/fuzz_util.h"
+#include "tests/testing/png_bytes.h"
 
 namespace {
 
@@ -35,60 +34,22 @@ void CheckError(const Status& status) {
   FUZZ_CHECK(!status.message().empty());
 }
 
-void PutBigEndian32(std::string& out, uint32_t v) {
-  for (int shift = 24; shift >= 0; shift -= 8) out.push_back(static_cast<char>(v >> shift));
-}
-
-void PutChunk(std::string& out, std::string_view type, std::string_view data) {
-  PutBigEndian32(out, static_cast<uint32_t>(data.size()));
-  const size_t body = out.size();
-  out += type;
-  out += data;
-  PutBigEndian32(out,
-                 static_cast<uint32_t>(libdeflate_crc32(0, out.data() + body, out.size() - body)));
-}
-
 // Width, height and layout from the first 3 bytes, then filtered rows (filter byte included) as
 // the rest gives them, padded with zeros or cut to the image's size; written as a valid PNG.
 std::string PngAroundRows(std::string_view bytes) {
   if (bytes.size() < 3) return {};
   static constexpr std::array<std::array<uint8_t, 2>, 6> kLayouts = {
       {{8, 0}, {16, 0}, {8, 2}, {8, 6}, {16, 2}, {8, 4}}};  // bit depth, colour type
-  const uint32_t width = 1 + static_cast<uint8_t>(bytes[0]) % 64;
-  const uint32_t height = 1 + static_cast<uint8_t>(bytes[1]) % 64;
+  testing::PngLayout layout;
+  layout.width = 1 + static_cast<uint8_t>(bytes[0]) % 64;
+  layout.height = 1 + static_cast<uint8_t>(bytes[1]) % 64;
   const auto& [depth, type] = kLayouts[static_cast<uint8_t>(bytes[2]) % kLayouts.size()];
+  layout.bit_depth = depth;
+  layout.colour_type = type;
   const uint32_t channels = type == 0 ? 1 : type == 2 ? 3 : type == 4 ? 2 : 4;
   std::string rows(bytes.substr(3));
-  rows.resize(height * (1 + width * channels * depth / 8), '\0');
-  libdeflate_compressor* compressor = libdeflate_alloc_compressor(1);
-  if (compressor == nullptr) return {};
-  std::string stream(libdeflate_zlib_compress_bound(compressor, rows.size()), '\0');
-  stream.resize(
-      libdeflate_zlib_compress(compressor, rows.data(), rows.size(), stream.data(), stream.size()));
-  libdeflate_free_compressor(compressor);
-  std::string png("\x89PNG\r\n\x1a\n", 8), header;
-  PutBigEndian32(header, width);
-  PutBigEndian32(header, height);
-  header += {static_cast<char>(depth), static_cast<char>(type), 0, 0, 0};
-  PutChunk(png, "IHDR", header);
-  PutChunk(png, "IDAT", stream);
-  PutChunk(png, "IEND", "");
-  return png;
-}
-
-// The same bytes with every complete chunk's CRC made right.
-std::string WithCrcsFixed(std::string_view bytes) {
-  std::string out(bytes);
-  for (size_t at = 8; at + 12 <= out.size();) {
-    const auto* p = reinterpret_cast<const uint8_t*>(out.data() + at);
-    const uint64_t length =
-        (uint64_t{p[0]} << 24) | (uint64_t{p[1]} << 16) | (uint64_t{p[2]} << 8) | p[3];
-    if (length > out.size() - at - 12) break;
-    const auto crc = static_cast<uint32_t>(libdeflate_crc32(0, out.data() + at + 4, length + 4));
-    for (int i = 0; i < 4; ++i) out[at + 8 + length + i] = static_cast<char>(crc >> (24 - 8 * i));
-    at += 12 + length;
-  }
-  return out;
+  rows.resize(layout.height * (1 + layout.width * channels * layout.bit_depth / 8), '\0');
+  return testing::PngFromFilteredRows(layout, rows);
 }
 
 void Compressed(std::string_view bytes, uint8_t selector) {
@@ -162,7 +123,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (selector & 64) {
       Compressed(PngAroundRows(bytes), selector);
     } else if (selector & 32) {
-      Compressed(WithCrcsFixed(bytes), selector);
+      Compressed(testing::WithPngCrcsFixed(bytes), selector);
     } else {
       Compressed(bytes, selector);
     }

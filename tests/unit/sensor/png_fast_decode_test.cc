@@ -2,7 +2,6 @@
 // pixels that were encoded: every row filter for every pixel size it takes, real dataset
 // files, and every kind of damage or surprise left to libpng rather than decoded.
 #include <gtest/gtest.h>
-#include <libdeflate.h>
 
 #include <array>
 #include <cstdint>
@@ -17,6 +16,7 @@
 
 #include "core/sensor/compressed_image.h"
 #include "core/sensor/internal/png_decoders.h"
+#include "tests/testing/png_bytes.h"
 
 namespace semmap {
 namespace {
@@ -24,16 +24,7 @@ namespace {
 using sensor_internal::DecodePngFast;
 using sensor_internal::DecodePngWithLibpng;
 
-void PutBigEndian32(std::string& out, uint32_t v) {
-  for (int shift = 24; shift >= 0; shift -= 8) out.push_back(static_cast<char>(v >> shift));
-}
-
-void PutChunk(std::string& out, std::string_view type, std::string_view data) {
-  PutBigEndian32(out, static_cast<uint32_t>(data.size()));
-  const std::string body = std::string(type) + std::string(data);
-  out += body;
-  PutBigEndian32(out, static_cast<uint32_t>(libdeflate_crc32(0, body.data(), body.size())));
-}
+using testing::AppendPngChunk;
 
 int PaethPredictor(int a, int b, int c) {
   const int p = a + b - c;
@@ -65,9 +56,10 @@ struct PngSpec {
   std::string before_idat, after_idat;         // extra chunks, already framed
 };
 
-// `samples` in PNG byte order (RGB(A), 16-bit big-endian), one row after another.
-std::string BuildPng(const std::vector<uint8_t>& samples, int width, int height,
-                     const PngSpec& spec) {
+// `samples` (PNG byte order: RGB(A), 16-bit big-endian; one row after another) filtered with
+// spec.filters, each row after its filter byte.
+std::string FilterRows(const std::vector<uint8_t>& samples, int width, int height,
+                       const PngSpec& spec) {
   const size_t channels = spec.colour_type == 0 ? 1 : spec.colour_type == 2 ? 3 : 4;
   const size_t bpp = channels * static_cast<size_t>(spec.bit_depth / 8);
   const size_t row_bytes = bpp * static_cast<size_t>(width);
@@ -79,26 +71,19 @@ std::string BuildPng(const std::vector<uint8_t>& samples, int width, int height,
     filtered += FilterRow(spec.filters[static_cast<size_t>(r) % spec.filters.size()], row, prev,
                           row_bytes, bpp);
   }
-  libdeflate_compressor* compressor = libdeflate_alloc_compressor(6);
-  std::string stream(libdeflate_zlib_compress_bound(compressor, filtered.size()), '\0');
-  stream.resize(libdeflate_zlib_compress(compressor, filtered.data(), filtered.size(),
-                                         stream.data(), stream.size()));
-  libdeflate_free_compressor(compressor);
-  std::string png("\x89PNG\r\n\x1a\n", 8);
-  std::string header;
-  PutBigEndian32(header, static_cast<uint32_t>(width));
-  PutBigEndian32(header, static_cast<uint32_t>(height));
-  header += {static_cast<char>(spec.bit_depth), static_cast<char>(spec.colour_type), 0, 0, 0};
-  PutChunk(png, "IHDR", header);
-  png += spec.before_idat;
-  const size_t piece = stream.size() / spec.idat_chunks + 1;
-  for (size_t i = 0; i < spec.idat_chunks; ++i) {
-    const size_t begin = std::min(stream.size(), i * piece);
-    PutChunk(png, "IDAT", std::string_view(stream).substr(begin, piece));
-  }
-  png += spec.after_idat;
-  PutChunk(png, "IEND", "");
-  return png;
+  return filtered;
+}
+
+testing::PngLayout LayoutOf(int width, int height, const PngSpec& spec) {
+  return {static_cast<uint32_t>(width), static_cast<uint32_t>(height),
+          static_cast<uint8_t>(spec.bit_depth), static_cast<uint8_t>(spec.colour_type)};
+}
+
+std::string BuildPng(const std::vector<uint8_t>& samples, int width, int height,
+                     const PngSpec& spec) {
+  return testing::PngFromFilteredRows(LayoutOf(width, height, spec),
+                                      FilterRows(samples, width, height, spec), spec.idat_chunks,
+                                      spec.before_idat, spec.after_idat);
 }
 
 std::vector<uint8_t> RandomSamples(size_t n, int seed) {
@@ -186,8 +171,8 @@ TEST(PngFastDecodeTest, MixedFiltersSplitStreamsAndTextChunksAreTaken) {
   PngSpec spec;
   spec.filters = {4, 1, 0, 3, 2, 4, 4};
   spec.idat_chunks = 9;  // some of them empty once the stream is split this finely
-  PutChunk(spec.before_idat, "tEXt", std::string("Software\0test", 13));
-  PutChunk(spec.after_idat, "tIME", std::string("\x07\xea\x0c\x06\x05\x00\x00", 7));
+  AppendPngChunk(spec.before_idat, "tEXt", std::string("Software\0test", 13));
+  AppendPngChunk(spec.after_idat, "tIME", std::string("\x07\xea\x0c\x06\x05\x00\x00", 7));
   const std::string png = BuildPng(RandomSamples(3 * 64 * 48, 3), 64, 48, spec);
   ExpectFastMatchesLibpng(png, DecodeTarget::kColour, "mixed");
   // The public entry point takes the same pixels.
@@ -233,16 +218,6 @@ std::vector<size_t> ChunkOffsets(const std::string& png) {
   return out;
 }
 
-// Rewrites the CRC of the chunk at `offset` to match its (changed) bytes.
-void FixCrc(std::string& png, size_t offset) {
-  const auto* p = reinterpret_cast<const uint8_t*>(png.data() + offset);
-  const size_t length = (size_t{p[0]} << 24) | (size_t{p[1]} << 16) | (size_t{p[2]} << 8) | p[3];
-  std::string crc;
-  PutBigEndian32(crc,
-                 static_cast<uint32_t>(libdeflate_crc32(0, png.data() + offset + 4, length + 4)));
-  png.replace(offset + 8 + length, 4, crc);
-}
-
 // The fast path declines; the public decoder then answers as libpng does.
 void ExpectLeftToLibpng(const std::string& png, DecodeTarget target, const std::string& what) {
   StatusOr<CompressedImageInfo> info = ProbeCompressedImage(png);
@@ -271,49 +246,32 @@ TEST(PngFastDecodeTest, DamageAndSurprisesAreLeftToLibpng) {
   bad_crc[idat + 8 + 20] ^= 0x40;  // data changed, CRC not
   ExpectLeftToLibpng(bad_crc, DecodeTarget::kColour, "IDAT CRC wrong");
 
-  std::string bad_stream = bad_crc;
-  FixCrc(bad_stream, idat);  // CRC right, zlib stream damaged
+  const std::string bad_stream = testing::WithPngCrcsFixed(bad_crc);  // zlib stream damaged
   ExpectLeftToLibpng(bad_stream, DecodeTarget::kColour, "zlib stream damaged");
 
   std::string interlaced = good;
   interlaced[ihdr + 8 + 12] = 1;
-  FixCrc(interlaced, ihdr);
-  ExpectLeftToLibpng(interlaced, DecodeTarget::kColour, "interlaced");
+  ExpectLeftToLibpng(testing::WithPngCrcsFixed(interlaced), DecodeTarget::kColour, "interlaced");
 
-  std::string filter5;
-  {
-    // Row 1's filter byte is 5, inside the compressed stream: built by hand.
-    std::vector<uint8_t> samples = RandomSamples(3 * 40 * 30, 9);
-    std::string raw;
-    const std::vector<uint8_t> zeros(120, 0);
-    for (int r = 0; r < 30; ++r) {
-      const uint8_t* row = samples.data() + r * 120;
-      raw += FilterRow(0, row, r == 0 ? zeros.data() : row - 120, 120, 3);
-    }
-    raw[121] = 5;
-    libdeflate_compressor* compressor = libdeflate_alloc_compressor(6);
-    std::string stream(libdeflate_zlib_compress_bound(compressor, raw.size()), '\0');
-    stream.resize(
-        libdeflate_zlib_compress(compressor, raw.data(), raw.size(), stream.data(), stream.size()));
-    libdeflate_free_compressor(compressor);
-    filter5 = good.substr(0, idat);
-    PutChunk(filter5, "IDAT", stream);
-    PutChunk(filter5, "IEND", "");
-  }
+  PngSpec unfiltered = spec;
+  unfiltered.filters = {0};
+  std::string rows = FilterRows(RandomSamples(3 * 40 * 30, 9), 40, 30, unfiltered);
+  rows[121] = 5;  // row 1's filter byte, inside the compressed stream
+  const std::string filter5 = testing::PngFromFilteredRows(LayoutOf(40, 30, spec), rows);
   ExpectLeftToLibpng(filter5, DecodeTarget::kColour, "filter type 5");
 
   ExpectLeftToLibpng(good.substr(0, chunks[2]), DecodeTarget::kColour, "no IEND (truncated)");
 
   std::string gamma = good;
   std::string gama_chunk;
-  PutChunk(gama_chunk, "gAMA", std::string("\x00\x00\xb1\x8f", 4));
+  AppendPngChunk(gama_chunk, "gAMA", std::string("\x00\x00\xb1\x8f", 4));
   gamma.insert(idat, gama_chunk);
   ExpectLeftToLibpng(gamma, DecodeTarget::kColour, "an ancillary chunk not on the list (gAMA)");
 
   std::string split = good.substr(0, chunks[2]);
-  PutChunk(split, "tEXt", std::string("k\0v", 3));
-  PutChunk(split, "IDAT", "");
-  PutChunk(split, "IEND", "");
+  AppendPngChunk(split, "tEXt", std::string("k\0v", 3));
+  AppendPngChunk(split, "IDAT", "");
+  AppendPngChunk(split, "IEND", "");
   ExpectLeftToLibpng(split, DecodeTarget::kColour, "IDAT after another chunk");
 
   ExpectLeftToLibpng(good, DecodeTarget::kDepth16, "colour asked for as depth");
