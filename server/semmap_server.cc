@@ -163,7 +163,7 @@ StatusOr<std::unique_ptr<SemmapServer>> SemmapServer::Start(const ServerOptions&
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   if (IsUnixSocketAddress(options.listen)) {
-    const Status free = CheckUnixSocketPathFree(options.listen.substr(5));
+    const Status free = CheckUnixSocketPathFree(UnixSocketPathOf(options.listen));
     if (!free.ok()) {
       StopWriterAfterError(*server->writer_);
       return free;

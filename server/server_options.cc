@@ -1,6 +1,7 @@
 #include "server/server_options.h"
 
 #include <sstream>
+#include <string_view>
 
 namespace semmap {
 
@@ -10,7 +11,13 @@ bool IsLoopbackAddress(const std::string& listen) {
          IsUnixSocketAddress(listen);
 }
 
-bool IsUnixSocketAddress(const std::string& listen) { return listen.rfind("unix:", 0) == 0; }
+constexpr std::string_view kUnixScheme = "unix:";
+
+bool IsUnixSocketAddress(const std::string& listen) { return listen.starts_with(kUnixScheme); }
+
+std::string UnixSocketPathOf(const std::string& listen) {
+  return listen.substr(kUnixScheme.size());
+}
 
 namespace {
 
@@ -18,7 +25,7 @@ namespace {
 constexpr size_t kMaxUnixPathBytes = 107;
 
 Status ValidateUnixSocketAddress(const std::string& listen) {
-  const std::string path = listen.substr(5);
+  const std::string path = UnixSocketPathOf(listen);
   if (path.empty() || path.front() != '/') {
     return InvalidArgumentError(
         "--listen unix: wants an absolute path, e.g. unix:/run/semmap/semmapd.sock (got '" +

@@ -15,6 +15,8 @@ namespace semmap {
 bool IsLoopbackAddress(const std::string& listen);
 // unix:/PATH: a Unix domain socket on this machine (who may connect is the path's permissions).
 bool IsUnixSocketAddress(const std::string& listen);
+// The PATH of unix:/PATH.
+std::string UnixSocketPathOf(const std::string& listen);
 
 struct ServerOptions {
   // Library defaults, except what a long-running server wants: compact keyframe clouds.

@@ -157,8 +157,8 @@ int RunIngest(CliContext context, int argc, const char* const* argv) {
   }
   StatusOr<v1::IngestSummary> summary = (*stream)->Finish();
   if (!summary.ok()) return ReportError(summary.status());
-  const auto finished_at = std::chrono::steady_clock::now();
-  const double seconds = std::chrono::duration<double>(finished_at - t0).count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   double streaming_seconds = 0;
   {
     std::lock_guard lock(acks_mutex);

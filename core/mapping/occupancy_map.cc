@@ -569,14 +569,6 @@ StatusOr<OccupancyMap> OccupancyMap::Build(
                                   " has no cloud");
     }
   }
-  if (keyframes.size() < 2) {
-    for (size_t i = 0; i < keyframes.size(); ++i) {
-      SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
-      SEMMAP_RETURN_IF_ERROR(map.Insert(*keyframes[i].first, keyframes[i].second)
-                                 .WithContext("keyframe " + std::to_string(i)));
-    }
-    return map;
-  }
   // The rays of the next keyframes are cast on a second thread while this one's updates go
   // into the tree (ray casting is about half an insertion): the same updates in the same order
   // as inserting one after another, so the same tree.
