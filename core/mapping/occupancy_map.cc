@@ -24,6 +24,7 @@
 #include "common/checked_math.h"
 #include "common/thread_annotations.h"
 #include "common/thread_priority.h"
+#include "core/mapping/internal/octree_batch_update.h"
 
 namespace semmap {
 namespace {
@@ -201,23 +202,10 @@ StatusOr<OtHeader> ParseOtHeader(std::string_view ot) {
   return header;
 }
 
-// Morton code of a key: bit i of k[c] at bit 3i + c, so dropping a tree level from every
-// coordinate is a 3-bit shift and sorted codes keep siblings adjacent at every level.
-uint64_t Morton(const octomap::OcTreeKey& key) {
-  auto spread = [](uint64_t x) {  // 16 bits -> every third bit
-    x = (x | x << 16) & 0x0000FF0000FFULL;
-    x = (x | x << 8) & 0x00F00F00F00FULL;
-    x = (x | x << 4) & 0x0C30C30C30C3ULL;
-    x = (x | x << 2) & 0x249249249249ULL;
-    return x;
-  };
-  return spread(key.k[0]) | spread(key.k[1]) << 1 | spread(key.k[2]) << 2;
-}
-
 // A keyframe point's end voxel and colour. Sorted by code, a voxel's points are adjacent and
 // the voxels come in the order UpdateInnerColours() needs (one sort, no per-voxel allocation).
 struct EndPoint {
-  uint64_t code;  // Morton(key)
+  uint64_t code;  // internal::Morton(key)
   octomap::OcTreeKey key;
   std::array<uint8_t, 3> rgb;
 };
@@ -252,15 +240,14 @@ void UpdateInnerColours(octomap::ColorOcTree& tree,
 
 // One keyframe's insertion worked out without touching the tree's nodes: the voxels its rays
 // pass through (free) and end in (occupied), as OccupancyOcTreeBase::insertPointCloud computes
-// them, and its end voxels' colours. Only the tree's resolution is read (OctoMap keeps ray
-// scratch per tree), so a rebuild prepares the next keyframes on another thread, with a tree of
-// its own, while this one is applied.
+// them, and its end voxels' colours. Only the tree's resolution is read, so a rebuild prepares
+// the next keyframes on another thread, with a tree of its own, while this one is applied.
 struct PreparedScan {
-  octomap::KeySet free_cells, occupied_cells;
-  std::vector<EndPoint> ends;  // sorted by code: a voxel's points adjacent
+  std::vector<internal::CellUpdate> updates;  // sorted by code
+  std::vector<EndPoint> ends;                 // sorted by code: a voxel's points adjacent
 };
 
-Status PrepareScan(octomap::ColorOcTree& key_tree, const OccupancyMapOptions& options,
+Status PrepareScan(const octomap::ColorOcTree& key_tree, const OccupancyMapOptions& options,
                    const KeyframeCloud& cloud, const Eigen::Isometry3d& T_world_keyframe,
                    PreparedScan* out) {
   if (!Finite(T_world_keyframe)) return InvalidArgumentError("keyframe pose is not finite");
@@ -274,8 +261,7 @@ Status PrepareScan(octomap::ColorOcTree& key_tree, const OccupancyMapOptions& op
     return OutOfRangeError("keyframe pose is outside the occupancy map's extent");
   }
   try {
-    octomap::Pointcloud scan;
-    scan.reserve(cloud.points.size());
+    octomap::Pointcloud scan;  // every point: rays to them when not discretized
     // Each end voxel gets the mean colour of the keyframe's points in it, once: one tree
     // search per voxel rather than per point, and not an order-dependent running average.
     out->ends.reserve(cloud.points.size());
@@ -288,22 +274,26 @@ Status PrepareScan(octomap::ColorOcTree& key_tree, const OccupancyMapOptions& op
       }
       const Eigen::Vector3f w = R * p + t;
       const octomap::point3d q(w.x(), w.y(), w.z());
-      scan.push_back(q);
+      if (!options.discretize) scan.push_back(q);
       // The same float point OctoMap keys (computeDiscreteUpdate), so the same end voxel.
       octomap::OcTreeKey key;
       if (!key_tree.coordToKeyChecked(q, key)) continue;
       const std::array<uint8_t, 3>& bgr = cloud.colours[i];
-      out->ends.push_back({Morton(key), key, {bgr[2], bgr[1], bgr[0]}});
+      out->ends.push_back({internal::Morton(key), key, {bgr[2], bgr[1], bgr[0]}});
     }
     std::sort(out->ends.begin(), out->ends.end(),
               [](const EndPoint& a, const EndPoint& b) { return a.code < b.code; });
     const octomap::point3d origin(t.x(), t.y(), t.z());
     if (options.discretize) {
-      key_tree.computeDiscreteUpdate(scan, origin, out->free_cells, out->occupied_cells,
-                                     options.max_range_m);
+      // computeDiscreteUpdate: one ray per distinct end voxel, to its centre.
+      octomap::Pointcloud centres;
+      for (size_t i = 0; i < out->ends.size(); ++i) {
+        if (i > 0 && out->ends[i].code == out->ends[i - 1].code) continue;
+        centres.push_back(key_tree.keyToCoord(out->ends[i].key));
+      }
+      out->updates = internal::ComputeScanUpdates(key_tree, centres, origin, options.max_range_m);
     } else {
-      key_tree.computeUpdate(scan, origin, out->free_cells, out->occupied_cells,
-                             options.max_range_m);
+      out->updates = internal::ComputeScanUpdates(key_tree, scan, origin, options.max_range_m);
     }
   } catch (const std::bad_alloc&) {
     return ResourceExhaustedError("occupancy map insertion: out of memory");
@@ -313,12 +303,11 @@ Status PrepareScan(octomap::ColorOcTree& key_tree, const OccupancyMapOptions& op
   return OkStatus();
 }
 
-// Applies a prepared keyframe: free then occupied updates as insertPointCloud makes them (inner
-// nodes kept current), then the end voxels' colours and their ancestors'.
+// Applies a prepared keyframe: its free and occupied updates (the tree insertPointCloud leaves,
+// inner nodes kept current), then the end voxels' colours and their ancestors'.
 Status ApplyScan(octomap::ColorOcTree& tree, const PreparedScan& scan) {
   try {
-    for (const octomap::OcTreeKey& key : scan.free_cells) tree.updateNode(key, false, false);
-    for (const octomap::OcTreeKey& key : scan.occupied_cells) tree.updateNode(key, true, false);
+    internal::ApplyCellUpdates(tree, scan.updates);
     const std::vector<EndPoint>& ends = scan.ends;
     std::vector<std::pair<uint64_t, octomap::OcTreeKey>> voxels;
     voxels.reserve(ends.size());
@@ -345,7 +334,7 @@ Status ApplyScan(octomap::ColorOcTree& tree, const PreparedScan& scan) {
 // consumer (each prepared scan holds a few MB of keys). Stopped and joined on destruction.
 class ScanPrefetcher {
  public:
-  using Prepare = std::function<Status(octomap::ColorOcTree&, size_t, PreparedScan*)>;
+  using Prepare = std::function<Status(const octomap::ColorOcTree&, size_t, PreparedScan*)>;
 
   ScanPrefetcher(size_t n, double resolution_m, Prepare prepare)
       : n_(n), resolution_m_(resolution_m), prepare_(std::move(prepare)) {
@@ -570,12 +559,12 @@ StatusOr<OccupancyMap> OccupancyMap::Build(
     }
   }
   // The rays of the next keyframes are cast on a second thread while this one's updates go
-  // into the tree (ray casting is about half an insertion): the same updates in the same order
-  // as inserting one after another, so the same tree.
+  // into the tree (with the batched update, ray casting is most of an insertion): the same
+  // updates in the same order as inserting one after another, so the same tree.
   std::optional<ScanPrefetcher> prefetcher;
   try {
     prefetcher.emplace(keyframes.size(), options.resolution_m,
-                       [&](octomap::ColorOcTree& key_tree, size_t i, PreparedScan* scan) {
+                       [&](const octomap::ColorOcTree& key_tree, size_t i, PreparedScan* scan) {
                          return PrepareScan(key_tree, options, *keyframes[i].first,
                                             keyframes[i].second, scan);
                        });
