@@ -77,7 +77,7 @@ bench: build
 	build/release/bench/matcher_bench
 	build/release/bench/place_recognition_bench
 	build/release/bench/object_query_bench
-	build/release/bench/occupancy_bench
+	build/release/bench/map_layers_bench
 	bash bench/slam_bench.sh
 	bash bench/map_bench.sh
 

@@ -54,19 +54,20 @@ StatusOr<std::unique_ptr<MapLayerBuilder>> MapLayerBuilder::Start(
   SEMMAP_RETURN_IF_ERROR(options.Validate());
   if (writer == nullptr) return InvalidArgumentError("map layers need a storage writer");
   SEMMAP_ASSIGN_OR_RETURN(OccupancyMap occupancy, OccupancyMap::Create(options.occupancy));
+  SEMMAP_ASSIGN_OR_RETURN(IncrementalCloud cloud, IncrementalCloud::Create(options.cloud));
   stage.name = "map '" + map_name + "' layers";
   stage.thread_name = "map-layers";
   stage.queue_capacity = options.queue_capacity;
   std::unique_ptr<MapLayerBuilder> builder(
       new MapLayerBuilder(map_id, std::move(map_name), options, writer, std::move(occupancy),
-                          std::move(restore), std::move(stage)));
+                          std::move(cloud), std::move(restore), std::move(stage)));
   SEMMAP_RETURN_IF_ERROR(builder->PipelineStage::Start());
   return builder;
 }
 
 MapLayerBuilder::MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerOptions options,
                                  StorageWriter* writer, OccupancyMap occupancy,
-                                 StoreRestore restore, StageConfig stage)
+                                 IncrementalCloud cloud, StoreRestore restore, StageConfig stage)
     : PipelineStage(std::move(stage)),
       map_id_(map_id),
       map_name_(std::move(map_name)),
@@ -74,6 +75,7 @@ MapLayerBuilder::MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerO
       writer_(writer),
       restore_(std::move(restore)),
       occupancy_(std::move(occupancy)),
+      cloud_(std::move(cloud)),
       last_persist_(Clock::now()),
       writes_(writer, "map layers") {}
 
@@ -177,10 +179,12 @@ void MapLayerBuilder::Handle(KeyframeImages& images) {
     return;
   }
   Entry& entry = entries_[{images.session_id, images.seq}];
-  // A keyframe seen again (restored, then re-sent) replaces its cloud: the tree needs a rebuild.
-  if (entry.inserted) rebuild_needed_ = true;
+  // A keyframe seen again (restored, then re-sent) replaces its cloud: the tree and the cloud
+  // layer need a rebuild (which takes the old points out of the cloud layer too).
+  if (entry.inserted || entry.T_layer_in_cloud) rebuild_needed_ = true;
   entry.cloud = std::make_shared<const KeyframeCloud>(std::move(cloud).value());
   entry.inserted = false;
+  entry.T_layer_in_cloud.reset();
   InsertIfReady({images.session_id, images.seq}, entry);
   if (entry.inserted) {
     std::lock_guard lock(mutex_);
@@ -198,6 +202,7 @@ void MapLayerBuilder::Handle(const PoseUpdate& update) {
       rebuild_needed_ = true;
     }
     entry.T_world_keyframe = pose.T_world_keyframe;
+    FollowInCloud(key, entry);
     if (!entry.inserted && entry.cloud) {
       const Clock::time_point t0 = Clock::now();
       InsertIfReady(key, entry);
@@ -248,8 +253,39 @@ void MapLayerBuilder::InsertIfReady(const Key& key, Entry& entry) {
   }
   entry.inserted = true;
   entry.T_world_built = *entry.T_world_keyframe;
+  const Status added = cloud_.Add(*entry.cloud, *T_layer_keyframe);
+  if (added.ok()) {
+    entry.T_layer_in_cloud = *T_layer_keyframe;
+  } else {
+    RecordError(added);
+  }
   std::lock_guard lock(mutex_);
   ++stats_.keyframes_inserted;
+}
+
+void MapLayerBuilder::FollowInCloud(const Key& key, Entry& entry) {
+  if (rebuild_needed_ || !entry.T_layer_in_cloud || !entry.cloud) return;  // a rebuild redoes it
+  const std::optional<Eigen::Isometry3d> T_layer_keyframe = InLayerFrame(key, entry);
+  // A tenth of a leaf at the farthest point a cloud holds: finer moves change no leaf's mean
+  // visibly, and bundle adjustment's refinements after every keyframe are mostly that small.
+  const double tolerance_m = options_.cloud.leaf_size_m / 10;
+  if (T_layer_keyframe && !MovedBeyond(*entry.T_layer_in_cloud, *T_layer_keyframe, tolerance_m,
+                                       tolerance_m / options_.occupancy.max_range_m)) {
+    return;
+  }
+  Status status = cloud_.Remove(*entry.cloud, *entry.T_layer_in_cloud);
+  entry.T_layer_in_cloud.reset();
+  if (status.ok() && T_layer_keyframe) {
+    status = cloud_.Add(*entry.cloud, *T_layer_keyframe);
+    if (status.ok()) entry.T_layer_in_cloud = *T_layer_keyframe;
+  }
+  dirty_ = true;
+  if (!status.ok()) {
+    LogWarning("map '{}' layers: {}; rebuilding the cloud layer", map_name_, status.ToString());
+    rebuild_needed_ = true;
+  }
+  std::lock_guard lock(mutex_);
+  ++stats_.cloud_moves;
 }
 
 std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> MapLayerBuilder::PlacedClouds() {
@@ -279,13 +315,23 @@ void MapLayerBuilder::Rebuild() {
     return;
   }
   occupancy_ = std::move(rebuilt).value();  // the swap: the old tree served until now
-  ReleaseFreedMemory();                     // the old tree's nodes
+  cloud_.Clear();
+  ReleaseFreedMemory();  // the old tree's nodes, the old cloud's leaves
   size_t inserted = 0;
   for (auto& [key, entry] : entries_) {
-    entry.inserted = entry.cloud && entry.T_world_keyframe && InLayerFrame(key, entry).has_value();
+    entry.T_layer_in_cloud.reset();
+    const std::optional<Eigen::Isometry3d> T_layer_keyframe =
+        entry.cloud && entry.T_world_keyframe ? InLayerFrame(key, entry) : std::nullopt;
+    entry.inserted = T_layer_keyframe.has_value();
     if (!entry.inserted) continue;
     entry.T_world_built = *entry.T_world_keyframe;
     ++inserted;
+    const Status added = cloud_.Add(*entry.cloud, *T_layer_keyframe);
+    if (!added.ok()) {
+      RecordError(added.WithContext("rebuild"));
+      continue;
+    }
+    entry.T_layer_in_cloud = *T_layer_keyframe;
   }
   dirty_ = true;
   std::lock_guard lock(mutex_);
@@ -303,13 +349,9 @@ void MapLayerBuilder::Persist() {
     RecordError(ot.status());
     return;
   }
-  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> placed = PlacedClouds();
-  StatusOr<PointCloudMap> cloud = PointCloudMap::Build(placed, options_.cloud);
-  if (!cloud.ok()) {
-    RecordError(cloud.status());
-    return;
-  }
-  StatusOr<std::string> pcd = cloud->ToPcd(/*binary=*/true);
+  const std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> placed = PlacedClouds();
+  const PointCloudMap cloud = cloud_.Snapshot();
+  StatusOr<std::string> pcd = cloud.ToPcd(/*binary=*/true);
   if (!pcd.ok()) {
     RecordError(pcd.status());
     return;
@@ -321,7 +363,8 @@ void MapLayerBuilder::Persist() {
     std::lock_guard lock(mutex_);
     stats_.octree_bytes = occupancy_.MemoryBytes();
     stats_.keyframe_cloud_bytes = cloud_bytes;
-    stats_.cloud_points = cloud->size();
+    stats_.cloud_layer_bytes = cloud_.MemoryBytes();
+    stats_.cloud_points = cloud.size();
     stats_.occupancy_blob_bytes = ot->size();
     stats_.cloud_blob_bytes = pcd->size();
     stats_.known_volume_m3 = known_volume;

@@ -6,7 +6,10 @@
 // every optimisation). A keyframe is inserted once both have arrived. Each keyframe's cloud is
 // kept in its own camera frame, so a correction only needs new poses: the occupancy tree is then
 // rebuilt from all clouds in the background (several corrections queued together cost one
-// rebuild) and swapped in when complete.
+// rebuild) and swapped in when complete. The coloured cloud is kept current incrementally
+// (IncrementalCloud): each keyframe a correction moves by more than a tenth of a cloud leaf is
+// taken out at its old pose and put in at its new one, so a persist no longer filters every
+// keyframe's points again.
 //
 // Readers never see the live tree: the products are persisted as map blobs through the storage
 // writer ("octomap.ot", full-probability; "cloud.pcd", voxel-filtered binary PCD), at most every
@@ -38,6 +41,7 @@
 #include "common/map_types.h"
 #include "common/pipeline_stage.h"
 #include "common/status.h"
+#include "core/mapping/incremental_cloud.h"
 #include "core/mapping/occupancy_map.h"
 #include "core/mapping/point_cloud_map.h"
 #include "core/sensor/image_decoding.h"
@@ -79,6 +83,8 @@ struct MapLayerStats {
   size_t queue_high_water = 0;
   size_t octree_bytes = 0;          // OctoMap's estimate for the live tree
   size_t keyframe_cloud_bytes = 0;  // clouds kept for rebuilds
+  size_t cloud_layer_bytes = 0;     // the incremental cloud's table of leaf sums
+  uint64_t cloud_moves = 0;         // keyframes moved in the cloud layer by corrections
   size_t cloud_points = 0;          // in the last persisted cloud
   size_t occupancy_blob_bytes = 0, cloud_blob_bytes = 0;
   double known_volume_m3 = 0;  // free or occupied leaves of the tree
@@ -140,11 +146,13 @@ class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
     std::optional<Eigen::Isometry3d> T_world_keyframe;
     bool inserted = false;
     Eigen::Isometry3d T_world_built = Eigen::Isometry3d::Identity();  // the tree's, if inserted
+    // Where `cloud` is in cloud_ (layer frame); nullopt when it is not in it.
+    std::optional<Eigen::Isometry3d> T_layer_in_cloud;
   };
 
   MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerOptions options,
-                  StorageWriter* writer, OccupancyMap occupancy, StoreRestore restore,
-                  StageConfig stage);
+                  StorageWriter* writer, OccupancyMap occupancy, IncrementalCloud cloud,
+                  StoreRestore restore, StageConfig stage);
   // The stage's hooks (its thread).
   void OnStart() override;
   void Handle(map_layer_internal::Event& event) override;
@@ -156,6 +164,9 @@ class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
   void Handle(KeyframeImages& images);
   void Handle(const PoseUpdate& update);
   void InsertIfReady(const Key& key, Entry& entry);
+  // Moves an entry's points in cloud_ to its current pose (out when it is beyond reach) when it
+  // moved more than a tenth of a leaf; a failure asks for a rebuild, which redoes cloud_.
+  void FollowInCloud(const Key& key, Entry& entry);
   // T_layer_keyframe of a placed entry; nullopt (logged once) when it is beyond the layers' reach.
   std::optional<Eigen::Isometry3d> InLayerFrame(const Key& key, const Entry& entry);
   void Rebuild();
@@ -175,6 +186,7 @@ class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
   std::optional<Eigen::Vector3d> origin_;
   bool reach_warned_ = false;
   OccupancyMap occupancy_;
+  IncrementalCloud cloud_;  // the coloured cloud at the entries' T_layer_in_cloud
   bool rebuild_needed_ = false;
   bool dirty_ = false;  // layers changed since the last persist
   std::chrono::steady_clock::time_point last_persist_;

@@ -1,13 +1,18 @@
-// Occupancy-map insertion (core/mapping) on synthetic room keyframes as semmapd keeps them
-// (every 4th pixel, 2 cm keyframe voxels, 5 cm tree, 4 m range): 30 keyframes of the circle
-// trajectory inserted into a fresh tree per iteration.
+// The map layers (core/mapping) on synthetic room keyframes as semmapd keeps them (every 4th
+// pixel, 2 cm keyframe voxels, 5 cm tree, 4 m range, 2 cm cloud leaves): 30 keyframes of the
+// circle trajectory. Occupancy insertion into a fresh tree per iteration:
 //   Insert/semmap           OccupancyMap::Insert (rays, one-descent batch update, colours)
 //   Insert/octomap          ColorOcTree::insertPointCloud on the same points (no colours)
 //   Rays+update/semmap      ComputeScanUpdates + ApplyCellUpdates (the occupancy part alone)
 //   Rays+update/octomap     computeDiscreteUpdate + updateNode per voxel, as OctoMap inserts
 //   Build                   OccupancyMap::Build of all 30 (the rebuild after a loop closure)
 // ms_per_keyframe is the figure to compare; the ratio semmap / octomap is printed at the end.
-// Run: build/release/bench/occupancy_bench
+// The coloured cloud layer, for a map of N keyframes (the 30, repeated 5 m apart beyond that):
+//   Cloud/filter_all/N      what a persist cost before the incremental cloud: PCL's voxel grid
+//                           over every keyframe's points (PointCloudMap::Build)
+//   Cloud/snapshot/N        what it costs now: IncrementalCloud::Snapshot of the leaf sums
+//   Cloud/move_keyframe/N   a correction moving one keyframe: Remove + Add
+// Run: build/release/bench/map_layers_bench
 #include <benchmark/benchmark.h>
 #include <octomap/ColorOcTree.h>
 
@@ -21,8 +26,10 @@
 #include <utility>
 #include <vector>
 
+#include "core/mapping/incremental_cloud.h"
 #include "core/mapping/internal/octree_batch_update.h"
 #include "core/mapping/occupancy_map.h"
+#include "core/mapping/point_cloud_map.h"
 #include "tests/testing/synth/default_scene.h"
 #include "tests/testing/synth/renderer.h"
 #include "tests/testing/synth/sequence_writer.h"
@@ -196,6 +203,73 @@ void BM_Build(benchmark::State& state) {
   Report(state, "Build", seconds);
 }
 BENCHMARK(BM_Build)->Name("Build")->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// N keyframes: the room's, repeated along x 5 m apart (a bigger home) until there are N.
+std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> MapOf(size_t n) {
+  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> out;
+  for (size_t i = 0; i < n; ++i) {
+    const Keyframe& k = Keyframes()[i % Keyframes().size()];
+    Eigen::Isometry3d T = k.T_world_camera;
+    const size_t copy = i / Keyframes().size();  // which repetition of the room
+    T.translation().x() += 5.0 * static_cast<double>(copy);
+    out.emplace_back(&k.cloud, T);
+  }
+  return out;
+}
+
+void BM_CloudFilterAll(benchmark::State& state) {
+  const auto map = MapOf(static_cast<size_t>(state.range(0)));
+  for (auto _ : state) {
+    StatusOr<PointCloudMap> cloud = PointCloudMap::Build(map, {});
+    if (!cloud.ok()) std::abort();
+    benchmark::DoNotOptimize(cloud);
+  }
+}
+BENCHMARK(BM_CloudFilterAll)
+    ->Name("Cloud/filter_all")
+    ->Arg(30)
+    ->Arg(300)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+IncrementalCloud IncrementalOf(size_t n) {
+  StatusOr<IncrementalCloud> cloud = IncrementalCloud::Create({});
+  if (!cloud.ok()) std::abort();
+  for (const auto& [kf, T] : MapOf(n)) {
+    if (!cloud->Add(*kf, T).ok()) std::abort();
+  }
+  return std::move(cloud).value();
+}
+
+void BM_CloudSnapshot(benchmark::State& state) {
+  const IncrementalCloud cloud = IncrementalOf(static_cast<size_t>(state.range(0)));
+  for (auto _ : state) benchmark::DoNotOptimize(cloud.Snapshot());
+  state.counters["leaves"] = static_cast<double>(cloud.size());
+  state.counters["MB"] = static_cast<double>(cloud.MemoryBytes()) / 1e6;
+}
+BENCHMARK(BM_CloudSnapshot)
+    ->Name("Cloud/snapshot")
+    ->Arg(30)
+    ->Arg(300)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+void BM_CloudMoveKeyframe(benchmark::State& state) {
+  IncrementalCloud cloud = IncrementalOf(static_cast<size_t>(state.range(0)));
+  const Keyframe& k = Keyframes()[3];
+  Eigen::Isometry3d T = k.T_world_camera, moved = T;
+  moved.translation().x() += 0.01;
+  for (auto _ : state) {
+    if (!cloud.Remove(k.cloud, T).ok() || !cloud.Add(k.cloud, moved).ok()) std::abort();
+    std::swap(T, moved);
+  }
+}
+BENCHMARK(BM_CloudMoveKeyframe)
+    ->Name("Cloud/move_keyframe")
+    ->Arg(30)
+    ->Arg(300)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace semmap
