@@ -30,10 +30,8 @@
 #include "core/mapping/internal/octree_batch_update.h"
 #include "core/mapping/occupancy_map.h"
 #include "core/mapping/point_cloud_map.h"
-#include "tests/testing/synth/default_scene.h"
 #include "tests/testing/synth/renderer.h"
-#include "tests/testing/synth/sequence_writer.h"
-#include "tests/testing/synth/trajectory.h"
+#include "tests/testing/synth/room_circle.h"
 
 namespace semmap {
 namespace {
@@ -53,21 +51,13 @@ OccupancyMapOptions Options() {
 
 const std::vector<Keyframe>& Keyframes() {
   static const std::vector<Keyframe>* keyframes = [] {
-    StatusOr<synth::Scene> scene = synth::MakeDefaultRoomScene(1);
-    if (!scene.ok()) std::abort();
-    StatusOr<synth::Renderer> renderer =
-        synth::Renderer::Create(*scene, synth::DefaultSyntheticCamera());
-    if (!renderer.ok()) std::abort();
-    synth::TrajectoryOptions trajectory;
-    trajectory.frames = 120;
-    StatusOr<std::vector<StampedPose>> poses = synth::CircleTrajectory(scene->room, trajectory);
-    if (!poses.ok()) std::abort();
+    StatusOr<synth::RoomCircle> circle = synth::RenderRoomCircle(120, 4);
+    if (!circle.ok()) std::abort();
     auto* out = new std::vector<Keyframe>;
-    for (size_t i = 0; i < poses->size(); i += 4) {
-      const Eigen::Isometry3d& T = (*poses)[i].T_world_camera;
-      const synth::RenderedFrame frame = renderer->Render(T);
-      StatusOr<KeyframeCloud> cloud = MakeKeyframeCloud({frame.depth, synth::kDepthScale},
-                                                        frame.bgr, renderer->camera(), Options());
+    for (const synth::RoomView& view : circle->views) {
+      const Eigen::Isometry3d& T = view.T_world_camera;
+      StatusOr<KeyframeCloud> cloud = MakeKeyframeCloud({view.frame.depth, synth::kDepthScale},
+                                                        view.frame.bgr, circle->camera, Options());
       if (!cloud.ok()) std::abort();
       Keyframe k{std::move(cloud).value(), T, {}, {}};
       const Eigen::Isometry3f Tf = T.cast<float>();

@@ -12,10 +12,8 @@
 #include <vector>
 
 #include "tests/testing/same_cloud.h"
-#include "tests/testing/synth/default_scene.h"
 #include "tests/testing/synth/renderer.h"
-#include "tests/testing/synth/sequence_writer.h"
-#include "tests/testing/synth/trajectory.h"
+#include "tests/testing/synth/room_circle.h"
 
 namespace semmap {
 namespace {
@@ -28,24 +26,16 @@ struct Keyframe {
 // Every 10th pose of a 120-frame circle through the room, clouds as semmapd keeps them.
 const std::vector<Keyframe>& RoomKeyframes() {
   static const std::vector<Keyframe>* const keyframes = [] {
-    StatusOr<synth::Scene> scene = synth::MakeDefaultRoomScene(1);
-    if (!scene.ok()) std::abort();
-    StatusOr<synth::Renderer> renderer =
-        synth::Renderer::Create(*scene, synth::DefaultSyntheticCamera());
-    if (!renderer.ok()) std::abort();
-    synth::TrajectoryOptions trajectory;
-    trajectory.frames = 120;
-    StatusOr<std::vector<StampedPose>> poses = synth::CircleTrajectory(scene->room, trajectory);
-    if (!poses.ok()) std::abort();
+    StatusOr<synth::RoomCircle> circle = synth::RenderRoomCircle(120, 10);
+    if (!circle.ok()) std::abort();
     OccupancyMapOptions options;
     options.keyframe_voxel_m = 0.02;
     auto* out = new std::vector<Keyframe>;
-    for (size_t i = 0; i < poses->size(); i += 10) {
-      const synth::RenderedFrame frame = renderer->Render((*poses)[i].T_world_camera);
-      StatusOr<KeyframeCloud> cloud = MakeKeyframeCloud({frame.depth, synth::kDepthScale},
-                                                        frame.bgr, renderer->camera(), options);
+    for (const synth::RoomView& view : circle->views) {
+      StatusOr<KeyframeCloud> cloud = MakeKeyframeCloud({view.frame.depth, synth::kDepthScale},
+                                                        view.frame.bgr, circle->camera, options);
       if (!cloud.ok()) std::abort();
-      out->push_back({std::move(cloud).value(), (*poses)[i].T_world_camera});
+      out->push_back({std::move(cloud).value(), view.T_world_camera});
     }
     return out;
   }();

@@ -14,10 +14,8 @@
 #include <vector>
 
 #include "core/mapping/occupancy_map.h"
-#include "tests/testing/synth/default_scene.h"
 #include "tests/testing/synth/renderer.h"
-#include "tests/testing/synth/sequence_writer.h"
-#include "tests/testing/synth/trajectory.h"
+#include "tests/testing/synth/room_circle.h"
 
 namespace semmap {
 namespace {
@@ -33,23 +31,15 @@ struct Scan {
 // Every `every`-th pose of a 120-frame circle through the synthetic room: its depth as world
 // points (every 4th pixel, as semmapd keeps them), some beyond the range limit.
 std::vector<Scan> RoomScans(int every) {
-  StatusOr<synth::Scene> scene = synth::MakeDefaultRoomScene(1);
-  if (!scene.ok()) std::abort();
-  StatusOr<synth::Renderer> renderer =
-      synth::Renderer::Create(*scene, synth::DefaultSyntheticCamera());
-  if (!renderer.ok()) std::abort();
-  synth::TrajectoryOptions trajectory;
-  trajectory.frames = 120;
-  StatusOr<std::vector<StampedPose>> poses = synth::CircleTrajectory(scene->room, trajectory);
-  if (!poses.ok()) std::abort();
+  StatusOr<synth::RoomCircle> circle = synth::RenderRoomCircle(120, every);
+  if (!circle.ok()) std::abort();
   OccupancyMapOptions options;
   options.max_range_m = 50;  // keep the far points: the scan's range limit is tested here
   std::vector<Scan> out;
-  for (size_t i = 0; i < poses->size(); i += static_cast<size_t>(every)) {
-    const Eigen::Isometry3d& T = (*poses)[i].T_world_camera;
-    const synth::RenderedFrame frame = renderer->Render(T);
-    StatusOr<KeyframeCloud> cloud = MakeKeyframeCloud({frame.depth, synth::kDepthScale}, frame.bgr,
-                                                      renderer->camera(), options);
+  for (const synth::RoomView& view : circle->views) {
+    const Eigen::Isometry3d& T = view.T_world_camera;
+    StatusOr<KeyframeCloud> cloud = MakeKeyframeCloud({view.frame.depth, synth::kDepthScale},
+                                                      view.frame.bgr, circle->camera, options);
     if (!cloud.ok()) std::abort();
     Scan scan;
     for (const Eigen::Vector3f& p : cloud->points) {
