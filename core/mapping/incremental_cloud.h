@@ -30,6 +30,11 @@ namespace semmap {
 
 class IncrementalCloud {
  public:
+  // How far from the origin a leaf's key reaches along each axis (2^20 leaves).
+  static double ReachM(const PointCloudMapOptions& options) {
+    return options.leaf_size_m * static_cast<double>(1 << 20);
+  }
+
   // An empty cloud. INVALID_ARGUMENT for bad options.
   static StatusOr<IncrementalCloud> Create(const PointCloudMapOptions& options);
 

@@ -351,6 +351,15 @@ void MapLayerBuilder::Persist() {
   }
   const std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> placed = PlacedClouds();
   const PointCloudMap cloud = cloud_.Snapshot();
+  if (cloud_.points_out_of_range() > 0 && !cloud_range_warned_) {
+    cloud_range_warned_ = true;
+    LogWarning(
+        "map '{}' layers: {} point(s) more than {:.0f} m from the layers' origin are left out of "
+        "the coloured cloud (its {} m leaves are indexed that far; a coarser --cloud-voxel "
+        "reaches further)",
+        map_name_, cloud_.points_out_of_range(), IncrementalCloud::ReachM(options_.cloud),
+        options_.cloud.leaf_size_m);
+  }
   StatusOr<std::string> pcd = cloud.ToPcd(/*binary=*/true);
   if (!pcd.ok()) {
     RecordError(pcd.status());
@@ -364,6 +373,7 @@ void MapLayerBuilder::Persist() {
     stats_.octree_bytes = occupancy_.MemoryBytes();
     stats_.keyframe_cloud_bytes = cloud_bytes;
     stats_.cloud_layer_bytes = cloud_.MemoryBytes();
+    stats_.cloud_points_out_of_range = cloud_.points_out_of_range();
     stats_.cloud_points = cloud.size();
     stats_.occupancy_blob_bytes = ot->size();
     stats_.cloud_blob_bytes = pcd->size();

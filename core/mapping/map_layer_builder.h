@@ -81,11 +81,12 @@ struct MapLayerStats {
   uint64_t rebuilds = 0;
   uint64_t persists = 0;
   size_t queue_high_water = 0;
-  size_t octree_bytes = 0;          // OctoMap's estimate for the live tree
-  size_t keyframe_cloud_bytes = 0;  // clouds kept for rebuilds
-  size_t cloud_layer_bytes = 0;     // the incremental cloud's table of leaf sums
-  uint64_t cloud_moves = 0;         // keyframes moved in the cloud layer by corrections
-  size_t cloud_points = 0;          // in the last persisted cloud
+  size_t octree_bytes = 0;                 // OctoMap's estimate for the live tree
+  size_t keyframe_cloud_bytes = 0;         // clouds kept for rebuilds
+  size_t cloud_layer_bytes = 0;            // the incremental cloud's table of leaf sums
+  uint64_t cloud_moves = 0;                // keyframes moved in the cloud layer by corrections
+  uint64_t cloud_points_out_of_range = 0;  // too far out for a cloud leaf's key: left out
+  size_t cloud_points = 0;                 // in the last persisted cloud
   size_t occupancy_blob_bytes = 0, cloud_blob_bytes = 0;
   double known_volume_m3 = 0;  // free or occupied leaves of the tree
   LatencySummary insert_ms;    // cloud + ray-casting per keyframe
@@ -185,6 +186,7 @@ class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
   // Set by the restore or by the first placed keyframe.
   std::optional<Eigen::Vector3d> origin_;
   bool reach_warned_ = false;
+  bool cloud_range_warned_ = false;
   OccupancyMap occupancy_;
   IncrementalCloud cloud_;  // the coloured cloud at the entries' T_layer_in_cloud
   bool rebuild_needed_ = false;

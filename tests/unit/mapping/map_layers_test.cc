@@ -329,6 +329,36 @@ TEST_F(MapLayersTest, LayersFarFromTheMapOriginAreBuiltAroundTheFirstKeyframe) {
   EXPECT_EQ(DecodeLayerOrigin(read_->GetBlob(map_.id, kLayerOriginBlobKind)->data).value(), utm);
 }
 
+// A 1 mm cloud leaf indexes +-1049 m; the 5 cm tree reaches 1618 m. A keyframe 1200 m out is in
+// the tree, its points are left out of the coloured cloud and counted (a warning says so), and
+// the rest of the cloud is as it was.
+TEST_F(MapLayersTest, CloudPointsBeyondTheLeafIndexAreLeftOutAndCounted) {
+  options_.cloud.leaf_size_m = 0.001;
+  std::unique_ptr<MapLayerBuilder> builder = StartBuilder(/*restore=*/false);
+  ASSERT_NE(builder, nullptr);
+  const Keyframe& home = Keyframes()[0];
+  Eigen::Isometry3d away = home.T_world_camera;
+  away.translation().x() += 1200.0;
+  int64_t seq = 0;
+  for (const Eigen::Isometry3d& T : {home.T_world_camera, away}) {
+    ASSERT_TRUE(builder
+                    ->AddKeyframeImages(session_.id, seq, {home.frame.depth, synth::kDepthScale},
+                                        home.frame.bgr, SharedRenderer().camera())
+                    .ok());
+    ASSERT_TRUE(builder->SetKeyframePoses({{session_.id, seq++, T}}, false).ok());
+  }
+  ASSERT_TRUE(builder->Flush().ok());
+  const MapLayerStats stats = builder->stats();
+  EXPECT_EQ(stats.keyframes_inserted, 2u);
+  EXPECT_EQ(stats.keyframes_beyond_reach, 0u);
+  const std::vector<KeyframeCloud> clouds = Clouds(options_);
+  EXPECT_EQ(stats.cloud_points_out_of_range, clouds[0].size());
+  StatusOr<PointCloudMap> expected =
+      PointCloudMap::Build({{&clouds[0], home.T_world_camera}}, options_.cloud);
+  ASSERT_TRUE(expected.ok());
+  testing::ExpectSameCloud(StoredCloud(), expected->points(), options_.cloud.leaf_size_m, 2e-6, 1);
+}
+
 TEST(LayerFrameTest, OriginsRoundToKilometresAndRoundTrip) {
   EXPECT_EQ(LayerOriginFor(Eigen::Vector3d(1.3, -0.6, 499.0)), Eigen::Vector3d::Zero());
   EXPECT_EQ(LayerOriginFor(Eigen::Vector3d(690123.4, 5334567.8, -2.0)),
