@@ -12,7 +12,7 @@
 namespace semmap {
 namespace {
 
-constexpr int64_t kIndexBias = int64_t{1} << 20;  // leaf indices in [-2^20, 2^20) per axis
+constexpr int64_t kIndexBias = IncrementalCloud::kIndexReach;  // keys hold index + bias
 constexpr uint64_t kIndexMask = (uint64_t{1} << 21) - 1;
 constexpr double kOffsetUnits = 65536.0;  // offset quanta per leaf
 constexpr uint32_t kMaxCount = 1u << 24;  // 255 * kMaxCount still fits a uint32 sum
@@ -109,10 +109,11 @@ Status IncrementalCloud::ForEachPoint(const KeyframeCloud& cloud,
     int64_t index[3];
     bool in_range = true;
     for (int a = 0; a < 3; ++a) {
-      const float f = std::floor(p[a] * inverse_leaf);
-      in_range =
-          in_range && f >= -static_cast<float>(kIndexBias) && f < static_cast<float>(kIndexBias);
-      index[a] = in_range ? static_cast<int64_t>(f) : 0;
+      // floor(s) is in [-bias, bias) exactly when s is (bias is an integer).
+      const float scaled = p[a] * inverse_leaf;
+      in_range = in_range && scaled >= -static_cast<float>(kIndexBias) &&
+                 scaled < static_cast<float>(kIndexBias);
+      index[a] = in_range ? PclLeafIndex(p[a], inverse_leaf) : 0;
     }
     if (!in_range) {
       ++*out_of_range;
@@ -184,8 +185,7 @@ Status IncrementalCloud::Remove(const KeyframeCloud& cloud,
       }));
   if (!consistent) {
     return FailedPreconditionError(
-        "point cloud layer: a keyframe removed at a pose it was not "
-        "added at");
+        "point cloud layer: a keyframe removed at a pose it was not added at");
   }
   return OkStatus();
 }
@@ -213,7 +213,7 @@ PointCloudMap IncrementalCloud::Snapshot() const {
       // A mean within a quantum of the leaf's edge may round into the next leaf (as the float
       // index sees it): step it back towards the centre, as a mean of the points never leaves.
       const auto toward = static_cast<float>(centre);
-      while (static_cast<int64_t>(std::floor(v * inverse_leaf)) != index) {
+      while (PclLeafIndex(v, inverse_leaf) != index) {
         v = std::nextafter(v, toward);
       }
       return v;

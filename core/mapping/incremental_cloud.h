@@ -30,9 +30,11 @@ namespace semmap {
 
 class IncrementalCloud {
  public:
-  // How far from the origin a leaf's key reaches along each axis (2^20 leaves).
+  // Leaf indices a key holds along each axis: [-kIndexReach, kIndexReach).
+  static constexpr int64_t kIndexReach = int64_t{1} << 20;
+  // How far from the origin that reaches along each axis.
   static double ReachM(const PointCloudMapOptions& options) {
-    return options.leaf_size_m * static_cast<double>(1 << 20);
+    return options.leaf_size_m * static_cast<double>(kIndexReach);
   }
 
   // An empty cloud. INVALID_ARGUMENT for bad options.

@@ -45,11 +45,6 @@ void FilterPiece(const PclCloud::Ptr& piece, float leaf, std::vector<CloudPoint>
   }
 }
 
-// Leaf index along one axis exactly as PCL's VoxelGrid computes it (float arithmetic).
-int64_t LeafIndex(float coordinate, float inverse_leaf) {
-  return static_cast<int64_t>(std::floor(coordinate * inverse_leaf));
-}
-
 void AppendFloat(std::string& out, float v) {
   char buffer[32];
   const std::to_chars_result r = std::to_chars(buffer, buffer + sizeof(buffer), v);
@@ -182,15 +177,15 @@ StatusOr<PointCloudMap> PointCloudMap::Build(
     const int64_t by_points =
         std::max<int64_t>(1, static_cast<int64_t>(extent.x()) / pieces_by_points);
     const int64_t slab_leaves = std::min(by_leaves, by_points);
-    const int64_t first = LeafIndex(box.min().x(), inverse_leaf);
-    const int64_t slabs = (LeafIndex(box.max().x(), inverse_leaf) - first) / slab_leaves + 1;
+    const int64_t first = PclLeafIndex(box.min().x(), inverse_leaf);
+    const int64_t slabs = (PclLeafIndex(box.max().x(), inverse_leaf) - first) / slab_leaves + 1;
     const int64_t passes = std::clamp<int64_t>(pieces_by_points, 1, slabs);
     const int64_t per_pass = (slabs + passes - 1) / passes;
     for (int64_t begin = 0; begin < slabs; begin += per_pass) {
       SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
       std::map<int64_t, PclCloud::Ptr> pieces;
       for_each_world_point([&](const Eigen::Vector3f& p, const std::array<uint8_t, 3>& bgr) {
-        const int64_t slab = (LeafIndex(p.x(), inverse_leaf) - first) / slab_leaves;
+        const int64_t slab = (PclLeafIndex(p.x(), inverse_leaf) - first) / slab_leaves;
         if (slab < begin || slab >= begin + per_pass) return;
         PclCloud::Ptr& piece = pieces[slab];
         if (!piece) {

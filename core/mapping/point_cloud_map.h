@@ -20,6 +20,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -32,6 +33,13 @@
 #include "core/mapping/occupancy_map.h"
 
 namespace semmap {
+
+// Leaf index along one axis exactly as PCL's VoxelGrid computes it (float arithmetic): the grid
+// the cloud layer, its incremental form and their tests share. |coordinate * inverse_leaf| must
+// be below 2^63.
+inline int64_t PclLeafIndex(float coordinate, float inverse_leaf) {
+  return static_cast<int64_t>(std::floor(coordinate * inverse_leaf));
+}
 
 struct PointCloudMapOptions {
   double leaf_size_m = 0.02;  // voxel-grid leaf edge

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/mapping/cloud_point.h"
+#include "core/mapping/point_cloud_map.h"
 
 namespace semmap::testing {
 
@@ -24,9 +25,7 @@ inline std::map<std::tuple<int64_t, int64_t, int64_t>, CloudPoint> PointsByLeaf(
   const float inverse = 1.0f / static_cast<float>(leaf_m);
   for (const CloudPoint& p : points) {
     const std::tuple<int64_t, int64_t, int64_t> index{
-        static_cast<int64_t>(std::floor(p.x * inverse)),
-        static_cast<int64_t>(std::floor(p.y * inverse)),
-        static_cast<int64_t>(std::floor(p.z * inverse))};
+        PclLeafIndex(p.x, inverse), PclLeafIndex(p.y, inverse), PclLeafIndex(p.z, inverse)};
     EXPECT_TRUE(out.emplace(index, p).second) << "two points in one leaf";
   }
   return out;
