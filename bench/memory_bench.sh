@@ -6,10 +6,11 @@
 # the map's pipeline was released (--max-idle-maps 0), and the growth per 1000 keyframes, with the
 # map layers on and off. All figures also go to OUT/memory_bench.json.
 #
-#   bench/memory_bench.sh [--frames N] [--size WxH] [--out DIR]
-#     --frames N  frames of the tour (default 1200)
-#     --size WxH  image size (default 640x480)
-#     --out DIR   where memory_bench.json goes (default: a new temp dir, kept)
+#   bench/memory_bench.sh [--frames N] [--size WxH] [--cloud-budget-mb MB] [--out DIR]
+#     --frames N            frames of the tour (default 1200)
+#     --size WxH            image size (default 640x480)
+#     --cloud-budget-mb MB  semmapd's --map-cloud-budget-mb (default: semmapd's, 64)
+#     --out DIR             where memory_bench.json goes (default: a new temp dir, kept)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build/release}
@@ -18,12 +19,13 @@ SEMMAP="$BUILD_DIR/client/cli/semmap"
 SYNTH="$BUILD_DIR/tools/semmap-synth"
 source scripts/semmapd_lib.sh
 
-usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-2}"; }
-OUT=""; FRAMES=1200; SIZE=640x480
+usage() { sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-2}"; }
+OUT=""; FRAMES=1200; SIZE=640x480; BUDGET_ARGS=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --frames) FRAMES=$2; shift 2 ;;
     --size) SIZE=$2; shift 2 ;;
+    --cloud-budget-mb) BUDGET_ARGS=(--map-cloud-budget-mb "$2"); shift 2 ;;
     --out) OUT=$2; shift 2 ;;
     -h|--help) usage 0 ;;
     *) echo "memory_bench: unknown option $1" >&2; usage ;;
@@ -48,7 +50,8 @@ mb() { awk -v k="$1" 'BEGIN { printf "%.1f", k / 1024 }'; }
 run() {
   local layers=$1 data="$WORK/db-$1" samples="$WORK/rss-$1.txt"
   mkdir -p "$data"
-  start_semmapd "$SEMMAPD" "$data" --map-layers "$layers" --max-idle-maps 0 --log-level warning
+  start_semmapd "$SEMMAPD" "$data" --map-layers "$layers" --max-idle-maps 0 --log-level warning \
+    "${BUDGET_ARGS[@]}"
   local pid=$SEMMAPD_PID
   sleep 0.5
   local before; before=$(rss_kb "$pid")
@@ -84,7 +87,7 @@ run() {
   report_set ".layers_$layers" "{\"frames\": $frames, \"keyframes\": $keyframes, \"rss_start_mb\": $(mb "$before"), \"rss_end_mb\": $(mb "$at_end"), \"rss_peak_mb\": $(mb "$peak"), \"rss_released_mb\": $(mb "$released"), \"mb_per_1000_keyframes\": $per_1000}"
 }
 
-echo "== semmapd memory, ${FRAMES} frames ${WIDTH}x${HEIGHT}, RGBD, keyframe threshold 0.02"
+echo "== semmapd memory, ${FRAMES} frames ${WIDTH}x${HEIGHT}, RGBD, keyframe threshold 0.02 ${BUDGET_ARGS[*]}"
 run on
 run off
 echo "memory_bench: report in $REPORT"

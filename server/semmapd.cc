@@ -127,6 +127,14 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
                           args.GetDouble("cloud-voxel", map.cloud.leaf_size_m));
   SEMMAP_ASSIGN_OR_RETURN(map.occupancy.keyframe_voxel_m,
                           args.GetDouble("map-keyframe-voxel", map.occupancy.keyframe_voxel_m));
+  SEMMAP_ASSIGN_OR_RETURN(
+      long long cloud_budget_mb,
+      args.GetInt("map-cloud-budget-mb",
+                  static_cast<long long>(map.keyframe_cloud_budget_bytes >> 20)));
+  if (cloud_budget_mb < 0 || cloud_budget_mb > (1LL << 20)) {
+    return semmap::InvalidArgumentError("--map-cloud-budget-mb must be in [0, 1048576]");
+  }
+  map.keyframe_cloud_budget_bytes = static_cast<size_t>(cloud_budget_mb) << 20;
   SEMMAP_ASSIGN_OR_RETURN(options->ingest.objects.enabled,
                           args.GetOnOff("objects", options->ingest.objects.enabled));
   SEMMAP_ASSIGN_OR_RETURN(double object_xi,
@@ -246,6 +254,10 @@ int main(int argc, char** argv) {
   args.AddFlag("map-keyframe-voxel", "M",
                "each keyframe's cloud is kept as one mean point per cube of this edge, what the "
                "map holds per keyframe for rebuilds (default 0.02; 0: every sampled pixel)");
+  args.AddFlag("map-cloud-budget-mb", "MB",
+               "keyframe clouds each open map keeps in memory for rebuilds; beyond it the oldest "
+               "are read back from the stored keyframes when a rebuild needs them (default 64; "
+               "0: none kept once stored)");
   args.AddFlag("objects", "on|off", "recognise registered objects in RGBD keyframes (default on)");
   args.AddFlag("object-max-xi", "X",
                "object neighbour check: reject a detection whose matches exceed its best "

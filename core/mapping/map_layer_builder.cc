@@ -24,6 +24,12 @@ bool MovedBeyond(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double 
          Eigen::AngleAxisd(delta.rotation()).angle() > max_rotation_rad;
 }
 
+// A stored keyframe whose cloud cannot be read back (its session removed, its images damaged):
+// left out of the layers rather than failing them.
+bool Unreadable(const Status& status) {
+  return status.code() == StatusCode::kNotFound || status.code() == StatusCode::kDataLoss;
+}
+
 int64_t NowUnixNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(
              std::chrono::system_clock::now().time_since_epoch())
@@ -44,6 +50,9 @@ Status MapLayerOptions::Validate() const {
   if (!(rebuild_min_translation_m >= 0) || !(rebuild_min_rotation_rad >= 0) ||
       !std::isfinite(rebuild_min_translation_m) || !std::isfinite(rebuild_min_rotation_rad)) {
     return InvalidArgumentError("map layers: rebuild thresholds must be finite and >= 0");
+  }
+  if (keyframe_cloud_budget_bytes > (size_t{1} << 40)) {
+    return InvalidArgumentError("map layers: keyframe cloud budget must be at most 1 TiB");
   }
   return OkStatus();
 }
@@ -74,6 +83,8 @@ MapLayerBuilder::MapLayerBuilder(int64_t map_id, std::string map_name, MapLayerO
       options_(options),
       writer_(writer),
       restore_(std::move(restore)),
+      cache_(options.keyframe_cloud_budget_bytes, options.occupancy,
+             [this](const std::function<Status(MapStore&)>& read) { return ReadStore(read); }),
       occupancy_(std::move(occupancy)),
       cloud_(std::move(cloud)),
       last_persist_(Clock::now()),
@@ -132,12 +143,20 @@ void MapLayerBuilder::OnStop() {
   writes_.Wait();  // Stop() returns with the blobs committed
 }
 
+Status MapLayerBuilder::ReadStore(const std::function<Status(MapStore&)>& read) {
+  if (!restore_.open_reader) return writer_->RunSync(read);
+  if (!reader_) {
+    SEMMAP_ASSIGN_OR_RETURN(reader_, restore_.open_reader());
+  }
+  return read(*reader_);
+}
+
 void MapLayerBuilder::Restore() {
   // Damage in what is stored (a keyframe image, the origin) is logged and worked around: it must
-  // not fail the sessions that stream into the map afterwards.
-  std::vector<StoredKeyframeCloud> stored;
-  size_t damaged = 0;
-  const Status status = ReadForRestore(restore_, *writer_, [&](MapStore& store) -> Status {
+  // not fail the sessions that stream into the map afterwards. The keyframes' images are read
+  // one at a time by the rebuild that follows (a damaged one is left out there).
+  StoredKeyframeRefs stored;
+  const Status status = ReadStore([&](MapStore& store) -> Status {
     StatusOr<std::optional<Eigen::Vector3d>> origin = ReadLayerOrigin(store, map_id_, map_name_);
     if (!origin.ok() && origin.status().code() == StatusCode::kDataLoss) {
       LogWarning("map '{}' layers: {}; using the first keyframe's origin", map_name_,
@@ -145,29 +164,22 @@ void MapLayerBuilder::Restore() {
       origin = FirstKeyframeLayerOrigin(store, map_name_);
     }
     SEMMAP_ASSIGN_OR_RETURN(origin_, std::move(origin));
-    SEMMAP_ASSIGN_OR_RETURN(stored,
-                            LoadKeyframeClouds(store, map_name_, "", options_.occupancy, &damaged));
+    SEMMAP_ASSIGN_OR_RETURN(stored, ListStoredKeyframes(store, map_name_));
     return OkStatus();
   });
-  if (damaged > 0) {
-    LogWarning(
-        "map '{}' layers: {} stored keyframe(s) have damaged images and are left out of the "
-        "restored layers",
-        map_name_, damaged);
-  }
   if (!status.ok()) {
     RecordError(status.WithContext("restoring from stored keyframes"));
     return;
   }
-  for (StoredKeyframeCloud& kf : stored) {
-    Entry& entry = entries_[{kf.session_id, kf.seq}];
-    entry.cloud = std::move(kf.cloud);
-    entry.T_world_keyframe = kf.T_world_keyframe;
+  for (const StoredKeyframeRef& kf : stored.keyframes) {
+    const Key key{kf.session_id, kf.seq};
+    entries_[key].T_world_keyframe = kf.T_world_keyframe;
+    cache_.PutStored(key, kf.keyframe_id, stored.cameras.at(kf.session_id));
   }
-  if (stored.empty()) return;
+  if (stored.keyframes.empty()) return;
   rebuild_needed_ = true;
   std::lock_guard lock(mutex_);
-  stats_.restored_keyframes = stored.size();
+  stats_.restored_keyframes = stored.keyframes.size();
 }
 
 void MapLayerBuilder::Handle(KeyframeImages& images) {
@@ -178,14 +190,15 @@ void MapLayerBuilder::Handle(KeyframeImages& images) {
     RecordError(cloud.status().WithContext("keyframe seq " + std::to_string(images.seq)));
     return;
   }
-  Entry& entry = entries_[{images.session_id, images.seq}];
+  const Key key{images.session_id, images.seq};
+  Entry& entry = entries_[key];
   // A keyframe seen again (restored, then re-sent) replaces its cloud: the tree and the cloud
   // layer need a rebuild (which takes the old points out of the cloud layer too).
   if (entry.inserted || entry.T_layer_in_cloud) rebuild_needed_ = true;
-  entry.cloud = std::make_shared<const KeyframeCloud>(std::move(cloud).value());
+  cache_.Put(key, std::make_shared<const KeyframeCloud>(std::move(cloud).value()), images.camera);
   entry.inserted = false;
   entry.T_layer_in_cloud.reset();
-  InsertIfReady({images.session_id, images.seq}, entry);
+  InsertIfReady(key, entry);
   if (entry.inserted) {
     std::lock_guard lock(mutex_);
     insert_ms_.Add(MillisecondsSince(t0));
@@ -203,7 +216,7 @@ void MapLayerBuilder::Handle(const PoseUpdate& update) {
     }
     entry.T_world_keyframe = pose.T_world_keyframe;
     FollowInCloud(key, entry);
-    if (!entry.inserted && entry.cloud) {
+    if (!entry.inserted && cache_.Contains(key)) {
       const Clock::time_point t0 = Clock::now();
       InsertIfReady(key, entry);
       if (entry.inserted) {
@@ -212,6 +225,39 @@ void MapLayerBuilder::Handle(const PoseUpdate& update) {
       }
     }
   }
+}
+
+bool MapLayerBuilder::MatchStoredCloud(const Key& key, const KeyframeCloud& in_memory,
+                                       const KeyframeCloudCache::Source& stored) {
+  StatusOr<std::shared_ptr<const KeyframeCloud>> read = cache_.Read(stored);
+  if (!read.ok()) return false;  // keep it: it could not be moved or rebuilt otherwise
+  const KeyframeCloud& again = **read;
+  const auto it = entries_.find(key);
+  if (again.points == in_memory.points && again.colours == in_memory.colours) return true;
+  if (it == entries_.end() || !it->second.T_layer_in_cloud) return true;
+  // The store re-encoded its colours: the cloud layer takes the read-back colours now, so that
+  // taking the keyframe out later (with what is read back then) is exact.
+  const Eigen::Isometry3d& T = *it->second.T_layer_in_cloud;
+  Status status = cloud_.Remove(in_memory, T);
+  if (status.ok()) status = cloud_.Add(again, T);
+  if (!status.ok()) {
+    LogWarning("map '{}' layers: {}; rebuilding the cloud layer", map_name_, status.ToString());
+    it->second.T_layer_in_cloud.reset();
+    rebuild_needed_ = true;
+  }
+  std::lock_guard lock(mutex_);
+  ++stats_.cloud_colour_swaps;
+  return true;
+}
+
+bool MapLayerBuilder::LeaveOutUnreadable(const Key& key, const Status& status) {
+  if (!Unreadable(status)) return false;
+  LogWarning("map '{}' layers: keyframe seq {} left out: {}", map_name_, key.second,
+             status.ToString());
+  cache_.Erase(key);
+  std::lock_guard lock(mutex_);
+  ++stats_.keyframes_unreadable;
+  return true;
 }
 
 std::optional<Eigen::Isometry3d> MapLayerBuilder::InLayerFrame(const Key& key, const Entry& entry) {
@@ -241,19 +287,26 @@ std::optional<Eigen::Isometry3d> MapLayerBuilder::InLayerFrame(const Key& key, c
 }
 
 void MapLayerBuilder::InsertIfReady(const Key& key, Entry& entry) {
-  if (!entry.cloud || !entry.T_world_keyframe) return;
+  if (!cache_.Contains(key) || !entry.T_world_keyframe) return;
   dirty_ = true;
   if (rebuild_needed_) return;  // the coming rebuild takes it in
   const std::optional<Eigen::Isometry3d> T_layer_keyframe = InLayerFrame(key, entry);
   if (!T_layer_keyframe) return;
-  const Status status = occupancy_.Insert(*entry.cloud, *T_layer_keyframe);
+  // In memory unless it was evicted before its pose came.
+  StatusOr<std::shared_ptr<const KeyframeCloud>> cloud = cache_.Read(cache_.SourceOf(key));
+  if (!cloud.ok()) {
+    if (LeaveOutUnreadable(key, cloud.status())) return;
+    RecordError(cloud.status().WithContext("keyframe seq " + std::to_string(key.second)));
+    return;
+  }
+  const Status status = occupancy_.Insert(**cloud, *T_layer_keyframe);
   if (!status.ok()) {
     RecordError(status);
     return;
   }
   entry.inserted = true;
   entry.T_world_built = *entry.T_world_keyframe;
-  const Status added = cloud_.Add(*entry.cloud, *T_layer_keyframe);
+  const Status added = cloud_.Add(**cloud, *T_layer_keyframe);
   if (added.ok()) {
     entry.T_layer_in_cloud = *T_layer_keyframe;
   } else {
@@ -264,7 +317,7 @@ void MapLayerBuilder::InsertIfReady(const Key& key, Entry& entry) {
 }
 
 void MapLayerBuilder::FollowInCloud(const Key& key, Entry& entry) {
-  if (rebuild_needed_ || !entry.T_layer_in_cloud || !entry.cloud) return;  // a rebuild redoes it
+  if (rebuild_needed_ || !entry.T_layer_in_cloud || !cache_.Contains(key)) return;  // rebuilt
   const std::optional<Eigen::Isometry3d> T_layer_keyframe = InLayerFrame(key, entry);
   // A tenth of a leaf at the farthest point a cloud holds: finer moves change no leaf's mean
   // visibly, and bundle adjustment's refinements after every keyframe are mostly that small.
@@ -273,10 +326,12 @@ void MapLayerBuilder::FollowInCloud(const Key& key, Entry& entry) {
                                        tolerance_m / options_.occupancy.max_range_m)) {
     return;
   }
-  Status status = cloud_.Remove(*entry.cloud, *entry.T_layer_in_cloud);
+  StatusOr<std::shared_ptr<const KeyframeCloud>> cloud = cache_.Read(cache_.SourceOf(key));
+  Status status = cloud.status();
+  if (status.ok()) status = cloud_.Remove(**cloud, *entry.T_layer_in_cloud);
   entry.T_layer_in_cloud.reset();
   if (status.ok() && T_layer_keyframe) {
-    status = cloud_.Add(*entry.cloud, *T_layer_keyframe);
+    status = cloud_.Add(**cloud, *T_layer_keyframe);
     if (status.ok()) entry.T_layer_in_cloud = *T_layer_keyframe;
   }
   dirty_ = true;
@@ -288,15 +343,15 @@ void MapLayerBuilder::FollowInCloud(const Key& key, Entry& entry) {
   ++stats_.cloud_moves;
 }
 
-std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> MapLayerBuilder::PlacedClouds() {
-  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> out;
+std::vector<std::pair<MapLayerBuilder::Key, Eigen::Isometry3d>> MapLayerBuilder::Placed() {
+  std::vector<std::pair<Key, Eigen::Isometry3d>> out;
   out.reserve(entries_.size());
   uint64_t beyond = 0;
   for (const auto& [key, entry] : entries_) {
-    if (!entry.cloud || !entry.T_world_keyframe) continue;
+    if (!entry.T_world_keyframe || !cache_.Contains(key)) continue;
     const std::optional<Eigen::Isometry3d> T_layer_keyframe = InLayerFrame(key, entry);
     if (T_layer_keyframe) {
-      out.emplace_back(entry.cloud.get(), *T_layer_keyframe);
+      out.emplace_back(key, *T_layer_keyframe);
     } else {
       ++beyond;
     }
@@ -309,39 +364,93 @@ std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> MapLayerBuilder:
 void MapLayerBuilder::Rebuild() {
   const Clock::time_point t0 = Clock::now();
   rebuild_needed_ = false;
-  StatusOr<OccupancyMap> rebuilt = OccupancyMap::Build(PlacedClouds(), options_.occupancy);
+  const std::vector<std::pair<Key, Eigen::Isometry3d>> placed = Placed();
+  std::vector<KeyframeCloudCache::Source> sources;
+  sources.reserve(placed.size());
+  for (const auto& [key, T] : placed) sources.push_back(cache_.SourceOf(key));
+  StatusOr<IncrementalCloud> cloud = IncrementalCloud::Create(options_.cloud);
+  if (!cloud.ok()) {
+    RecordError(cloud.status().WithContext("rebuild"));
+    return;
+  }
+  // Evicted clouds are read back on the build's ray-casting thread, a few keyframes ahead of
+  // the tree, and fed to the new coloured cloud as they go in: never all in memory at once. A
+  // keyframe the store can no longer give (removed, damaged) is left out, not the whole rebuild.
+  std::vector<char> unreadable(placed.size(), 0);  // written before its keyframe is handed over
+  std::vector<char> in_cloud(placed.size(), 0);
+  const auto source = [&](size_t i)
+      -> StatusOr<std::pair<std::shared_ptr<const KeyframeCloud>, Eigen::Isometry3d>> {
+    StatusOr<std::shared_ptr<const KeyframeCloud>> read = cache_.Read(sources[i]);
+    if (!read.ok() && Unreadable(read.status())) {
+      LogWarning("map '{}' layers: keyframe seq {} left out: {}", map_name_, placed[i].first.second,
+                 read.status().ToString());
+      unreadable[i] = 1;
+      return std::make_pair(std::make_shared<const KeyframeCloud>(), placed[i].second);
+    }
+    SEMMAP_RETURN_IF_ERROR(read.status());
+    return std::make_pair(std::move(read).value(), placed[i].second);
+  };
+  Status added = OkStatus();
+  const auto inserted = [&](size_t i, const std::shared_ptr<const KeyframeCloud>& kf) {
+    if (unreadable[i] != 0) return;
+    const Status status = cloud->Add(*kf, placed[i].second);
+    if (status.ok()) {
+      in_cloud[i] = 1;
+    } else if (added.ok()) {
+      added = status;
+    }
+    cache_.KeepIfRoom(placed[i].first, kf);
+  };
+  StatusOr<OccupancyMap> rebuilt =
+      OccupancyMap::Build(placed.size(), source, options_.occupancy, {}, inserted);
   if (!rebuilt.ok()) {
     RecordError(rebuilt.status().WithContext("rebuild"));
     return;
   }
-  occupancy_ = std::move(rebuilt).value();  // the swap: the old tree served until now
-  cloud_.Clear();
+  if (!added.ok()) RecordError(added.WithContext("rebuild"));
+  occupancy_ = std::move(rebuilt).value();  // the swap: the old layers served until now
+  cloud_ = std::move(cloud).value();
   ReleaseFreedMemory();  // the old tree's nodes, the old cloud's leaves
-  size_t inserted = 0;
   for (auto& [key, entry] : entries_) {
+    entry.inserted = false;
     entry.T_layer_in_cloud.reset();
-    const std::optional<Eigen::Isometry3d> T_layer_keyframe =
-        entry.cloud && entry.T_world_keyframe ? InLayerFrame(key, entry) : std::nullopt;
-    entry.inserted = T_layer_keyframe.has_value();
-    if (!entry.inserted) continue;
-    entry.T_world_built = *entry.T_world_keyframe;
-    ++inserted;
-    const Status added = cloud_.Add(*entry.cloud, *T_layer_keyframe);
-    if (!added.ok()) {
-      RecordError(added.WithContext("rebuild"));
+  }
+  size_t inserted_count = 0;
+  uint64_t left_out = 0;
+  for (size_t i = 0; i < placed.size(); ++i) {
+    Entry& entry = entries_.at(placed[i].first);
+    if (unreadable[i] != 0) {
+      cache_.Erase(placed[i].first);
+      ++left_out;
       continue;
     }
-    entry.T_layer_in_cloud = *T_layer_keyframe;
+    entry.inserted = true;
+    entry.T_world_built = *entry.T_world_keyframe;
+    ++inserted_count;
+    if (in_cloud[i] != 0) entry.T_layer_in_cloud = placed[i].second;
   }
   dirty_ = true;
   std::lock_guard lock(mutex_);
-  stats_.keyframes_inserted = inserted;
+  stats_.keyframes_inserted = inserted_count;
+  stats_.keyframes_unreadable += left_out;
   ++stats_.rebuilds;
   rebuild_ms_.Add(MillisecondsSince(t0));
 }
 
 void MapLayerBuilder::Persist() {
   const Clock::time_point t0 = Clock::now();
+  // Beyond the budget, the oldest keyframes the store holds give their clouds back (first: an
+  // eviction may change the cloud layer's colours, which this persist then writes).
+  const Status evicted = cache_.EvictOverBudget(
+      [this](const Key& key, const std::shared_ptr<const KeyframeCloud>& in_memory,
+             const KeyframeCloudCache::Source& stored) {
+        return MatchStoredCloud(key, *in_memory, stored);
+      });
+  if (!evicted.ok() && !evict_warned_) {
+    evict_warned_ = true;
+    LogWarning("map '{}' layers: keyframe clouds stay in memory: {}", map_name_,
+               evicted.ToString());
+  }
   dirty_ = false;
   last_persist_ = t0;
   StatusOr<std::string> ot = occupancy_.SerializeOt();
@@ -349,7 +458,7 @@ void MapLayerBuilder::Persist() {
     RecordError(ot.status());
     return;
   }
-  const std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> placed = PlacedClouds();
+  Placed();  // counts the keyframes beyond reach
   const PointCloudMap cloud = cloud_.Snapshot();
   if (cloud_.points_out_of_range() > 0 && !cloud_range_warned_) {
     cloud_range_warned_ = true;
@@ -365,13 +474,14 @@ void MapLayerBuilder::Persist() {
     RecordError(pcd.status());
     return;
   }
-  size_t cloud_bytes = 0;
-  for (const auto& [kf, T] : placed) cloud_bytes += kf->points.size() * (12 + 3);
   const double known_volume = occupancy_.KnownVolume();
   {
     std::lock_guard lock(mutex_);
     stats_.octree_bytes = occupancy_.MemoryBytes();
-    stats_.keyframe_cloud_bytes = cloud_bytes;
+    stats_.keyframe_cloud_bytes = cache_.resident_bytes();
+    stats_.keyframes_evicted = cache_.evicted();
+    stats_.keyframe_cloud_reads = cache_.reads();
+    stats_.cloud_points_saturated = cloud_.points_saturated();
     stats_.cloud_layer_bytes = cloud_.MemoryBytes();
     stats_.cloud_points_out_of_range = cloud_.points_out_of_range();
     stats_.cloud_points = cloud.size();
@@ -387,7 +497,7 @@ void MapLayerBuilder::Persist() {
   if (origin_)
     batch.blobs.push_back({map_id_, kLayerOriginBlobKind, EncodeLayerOrigin(*origin_), now});
   writes_.Submit(std::move(batch));
-  ReleaseFreedMemory();  // the cloud build's temporaries
+  ReleaseFreedMemory();  // the snapshot's temporaries, evicted clouds
   std::lock_guard lock(mutex_);
   persist_ms_.Add(MillisecondsSince(t0));
 }

@@ -9,7 +9,10 @@
 // rebuild) and swapped in when complete. The coloured cloud is kept current incrementally
 // (IncrementalCloud): each keyframe a correction moves by more than a tenth of a cloud leaf is
 // taken out at its old pose and put in at its new one, so a persist no longer filters every
-// keyframe's points again.
+// keyframe's points again. The clouds are kept within a memory budget per map
+// (KeyframeCloudCache): beyond it the oldest are dropped once stored and read back from the
+// stored keyframe images when a rebuild or a move needs them, so a map streamed into for hours
+// does not hold every keyframe's cloud in memory.
 //
 // Readers never see the live tree: the products are persisted as map blobs through the storage
 // writer ("octomap.ot", full-probability; "cloud.pcd", voxel-filtered binary PCD), at most every
@@ -17,7 +20,8 @@
 // tree and a cloud built from the current poses. Exports read those blobs (sha256-checked).
 //
 // A builder started for a map that already has keyframes (after a restart) first rebuilds its
-// layers from the stored keyframe images and corrected poses, on its own thread.
+// layers from the stored keyframe images and corrected poses, on its own thread, reading them
+// one at a time.
 //
 // The layers are built in the map's layer frame (layer_frame.h: the map frame shifted by a
 // per-map origin, persisted as the "layers.origin" blob); keyframes beyond the occupancy tree's
@@ -26,6 +30,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <future>
 #include <map>
 #include <memory>
@@ -42,6 +47,7 @@
 #include "common/pipeline_stage.h"
 #include "common/status.h"
 #include "core/mapping/incremental_cloud.h"
+#include "core/mapping/keyframe_cloud_cache.h"
 #include "core/mapping/occupancy_map.h"
 #include "core/mapping/point_cloud_map.h"
 #include "core/sensor/image_decoding.h"
@@ -70,6 +76,10 @@ struct MapLayerOptions {
   // coloured cloud is always built from the current poses.
   double rebuild_min_translation_m = 0.02;
   double rebuild_min_rotation_rad = 0.005;
+  // Keyframe clouds kept in memory for rebuilds and moves; beyond this the oldest stored ones are
+  // read back from the store when needed (a rebuild after a loop closure then decodes them:
+  // ~3 ms per keyframe). 64 MiB holds ~500 keyframes of 640x480 depth at the 2 cm keyframe voxel.
+  size_t keyframe_cloud_budget_bytes = size_t{64} << 20;
 
   Status Validate() const;
 };
@@ -82,10 +92,15 @@ struct MapLayerStats {
   uint64_t persists = 0;
   size_t queue_high_water = 0;
   size_t octree_bytes = 0;                 // OctoMap's estimate for the live tree
-  size_t keyframe_cloud_bytes = 0;         // clouds kept for rebuilds
+  size_t keyframe_cloud_bytes = 0;         // clouds kept in memory for rebuilds and moves
+  size_t keyframes_evicted = 0;            // whose clouds are read back from the store
+  uint64_t keyframe_cloud_reads = 0;       // clouds read back from the store so far
+  uint64_t keyframes_unreadable = 0;       // left out: the store could not give them back
+  uint64_t cloud_colour_swaps = 0;         // evicted keyframes whose stored colours differ (JPEG)
   size_t cloud_layer_bytes = 0;            // the incremental cloud's table of leaf sums
   uint64_t cloud_moves = 0;                // keyframes moved in the cloud layer by corrections
   uint64_t cloud_points_out_of_range = 0;  // too far out for a cloud leaf's key: left out
+  uint64_t cloud_points_saturated = 0;     // beyond a leaf's 2^24 points: left out
   size_t cloud_points = 0;                 // in the last persisted cloud
   size_t occupancy_blob_bytes = 0, cloud_blob_bytes = 0;
   double known_volume_m3 = 0;  // free or occupied leaves of the tree
@@ -142,8 +157,7 @@ class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
   using KeyframeImages = map_layer_internal::KeyframeImages;
   using PoseUpdate = map_layer_internal::PoseUpdate;
   using Key = std::pair<int64_t, int64_t>;  // (session_id, seq)
-  struct Entry {
-    std::shared_ptr<const KeyframeCloud> cloud;
+  struct Entry {  // its cloud is in cache_ once its images arrived (or it was restored)
     std::optional<Eigen::Isometry3d> T_world_keyframe;
     bool inserted = false;
     Eigen::Isometry3d T_world_built = Eigen::Isometry3d::Identity();  // the tree's, if inserted
@@ -168,12 +182,23 @@ class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
   // Moves an entry's points in cloud_ to its current pose (out when it is beyond reach) when it
   // moved more than a tenth of a leaf; a failure asks for a rebuild, which redoes cloud_.
   void FollowInCloud(const Key& key, Entry& entry);
+  // Before an evicted cloud is dropped: reads it back from the store; false (keep it) when that
+  // fails. When the read-back colours differ (a re-encoded JPEG), swaps them into cloud_.
+  bool MatchStoredCloud(const Key& key, const KeyframeCloud& in_memory,
+                        const KeyframeCloudCache::Source& stored);
+  // For a cloud the store cannot give back (NOT_FOUND, DATA_LOSS): forgets it, warns and counts;
+  // false for other errors.
+  bool LeaveOutUnreadable(const Key& key, const Status& status);
   // T_layer_keyframe of a placed entry; nullopt (logged once) when it is beyond the layers' reach.
   std::optional<Eigen::Isometry3d> InLayerFrame(const Key& key, const Entry& entry);
   void Rebuild();
   void Persist();
-  // Every placed keyframe in the layer frame (those beyond reach left out and counted).
-  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> PlacedClouds();
+  // Every keyframe with a cloud and a pose, in the layer frame (those beyond reach left out and
+  // counted).
+  std::vector<std::pair<Key, Eigen::Isometry3d>> Placed();
+  // Runs `read` on the builder's own store reader (opened when first needed) or, without one,
+  // through the writer. One call at a time (the builder's thread, or a rebuild's).
+  Status ReadStore(const std::function<Status(MapStore&)>& read);
 
   const int64_t map_id_;
   const std::string map_name_;
@@ -187,8 +212,12 @@ class MapLayerBuilder final : public PipelineStage<map_layer_internal::Event> {
   std::optional<Eigen::Vector3d> origin_;
   bool reach_warned_ = false;
   bool cloud_range_warned_ = false;
+  std::unique_ptr<MapStore> reader_;
+  bool evict_warned_ = false;
+  KeyframeCloudCache cache_;  // the entries' clouds
   OccupancyMap occupancy_;
   IncrementalCloud cloud_;  // the coloured cloud at the entries' T_layer_in_cloud
+
   bool rebuild_needed_ = false;
   bool dirty_ = false;  // layers changed since the last persist
   std::chrono::steady_clock::time_point last_persist_;

@@ -243,8 +243,9 @@ void UpdateInnerColours(octomap::ColorOcTree& tree,
 // them, and its end voxels' colours. Only the tree's resolution is read, so a rebuild prepares
 // the next keyframes on another thread, with a tree of its own, while this one is applied.
 struct PreparedScan {
-  std::vector<internal::CellUpdate> updates;  // sorted by code
-  std::vector<EndPoint> ends;                 // sorted by code: a voxel's points adjacent
+  std::vector<internal::CellUpdate> updates;   // sorted by code
+  std::vector<EndPoint> ends;                  // sorted by code: a voxel's points adjacent
+  std::shared_ptr<const KeyframeCloud> cloud;  // what a build prepared it from
 };
 
 Status PrepareScan(const octomap::ColorOcTree& key_tree, const OccupancyMapOptions& options,
@@ -551,32 +552,53 @@ StatusOr<OccupancyMap> OccupancyMap::Create(const OccupancyMapOptions& options) 
 StatusOr<OccupancyMap> OccupancyMap::Build(
     const std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>>& keyframes,
     const OccupancyMapOptions& options, const CancelCheck& cancel) {
-  SEMMAP_ASSIGN_OR_RETURN(OccupancyMap map, Create(options));
   for (size_t i = 0; i < keyframes.size(); ++i) {
     if (keyframes[i].first == nullptr) {
       return InvalidArgumentError("occupancy map build: keyframe " + std::to_string(i) +
                                   " has no cloud");
     }
   }
+  return Build(
+      keyframes.size(),
+      [&](size_t i)
+          -> StatusOr<std::pair<std::shared_ptr<const KeyframeCloud>, Eigen::Isometry3d>> {
+        // Borrowed, not owned: the caller's clouds outlive the build.
+        return std::make_pair(
+            std::shared_ptr<const KeyframeCloud>(std::shared_ptr<void>(), keyframes[i].first),
+            keyframes[i].second);
+      },
+      options, cancel);
+}
+
+StatusOr<OccupancyMap> OccupancyMap::Build(size_t count, const KeyframeSource& keyframe,
+                                           const OccupancyMapOptions& options,
+                                           const CancelCheck& cancel,
+                                           const KeyframeInserted& inserted) {
+  SEMMAP_ASSIGN_OR_RETURN(OccupancyMap map, Create(options));
   // The rays of the next keyframes are cast on a second thread while this one's updates go
   // into the tree (with the batched update, ray casting is most of an insertion): the same
   // updates in the same order as inserting one after another, so the same tree.
   std::optional<ScanPrefetcher> prefetcher;
   try {
-    prefetcher.emplace(keyframes.size(), options.resolution_m,
+    prefetcher.emplace(count, options.resolution_m,
                        [&](const octomap::ColorOcTree& key_tree, size_t i, PreparedScan* scan) {
-                         return PrepareScan(key_tree, options, *keyframes[i].first,
-                                            keyframes[i].second, scan);
+                         SEMMAP_ASSIGN_OR_RETURN(auto source, keyframe(i));
+                         if (source.first == nullptr) {
+                           return InvalidArgumentError("occupancy map build: no cloud");
+                         }
+                         scan->cloud = std::move(source.first);
+                         return PrepareScan(key_tree, options, *scan->cloud, source.second, scan);
                        });
   } catch (const std::system_error& e) {
     return ResourceExhaustedError(std::string("occupancy map build: no thread: ") + e.what());
   }
-  for (size_t i = 0; i < keyframes.size(); ++i) {
+  for (size_t i = 0; i < count; ++i) {
     SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
     PreparedScan scan;
     SEMMAP_RETURN_IF_ERROR(prefetcher->Next(&scan).WithContext("keyframe " + std::to_string(i)));
     SEMMAP_RETURN_IF_ERROR(
         ApplyScan(*map.tree_, scan).WithContext("keyframe " + std::to_string(i)));
+    if (inserted) inserted(i, scan.cloud);
   }
   return map;
 }

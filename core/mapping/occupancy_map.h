@@ -24,6 +24,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <optional>
@@ -96,6 +97,19 @@ class OccupancyMap {
   static StatusOr<OccupancyMap> Build(
       const std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>>& keyframes,
       const OccupancyMapOptions& options, const CancelCheck& cancel = {});
+  // The same from `count` keyframes handed over one at a time, so that a map need not hold every
+  // cloud at once (the layers read evicted ones back from the store while they rebuild):
+  // `keyframe(i)` gives keyframe i's cloud and pose; it runs in index order on the build's
+  // ray-casting thread, at most a few keyframes ahead of the tree, and its error ends the build.
+  // `inserted(i, cloud)`, when given, runs on the calling thread once keyframe i is in the tree.
+  using KeyframeSource =
+      std::function<StatusOr<std::pair<std::shared_ptr<const KeyframeCloud>, Eigen::Isometry3d>>(
+          size_t)>;
+  using KeyframeInserted = std::function<void(size_t, const std::shared_ptr<const KeyframeCloud>&)>;
+  static StatusOr<OccupancyMap> Build(size_t count, const KeyframeSource& keyframe,
+                                      const OccupancyMapOptions& options,
+                                      const CancelCheck& cancel = {},
+                                      const KeyframeInserted& inserted = {});
 
   OccupancyMap(OccupancyMap&&) noexcept;
   OccupancyMap& operator=(OccupancyMap&&) noexcept;

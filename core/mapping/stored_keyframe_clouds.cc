@@ -34,6 +34,28 @@ StatusOr<KeyframeCloud> KeyframeCloudFromRecord(const KeyframeRecord& record,
   return MakeKeyframeCloud(*decoded, *bgr, camera, options);
 }
 
+StatusOr<StoredKeyframeRefs> ListStoredKeyframes(MapStore& store, const std::string& map_name) {
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<SessionInfo> sessions, store.ListSessions(map_name));
+  StoredKeyframeRefs out;
+  for (const SessionInfo& session : sessions) {
+    SEMMAP_ASSIGN_OR_RETURN(std::vector<KeyframeRecord> keyframes,
+                            store.ListKeyframes(session.id, /*with_images=*/false));
+    out.cameras[session.id] = session.camera;
+    for (const KeyframeRecord& record : keyframes) {
+      if (record.depth_scale <= 0) continue;  // no depth: no cloud
+      out.keyframes.push_back({session.id, record.seq, record.id, record.T_world_camera});
+    }
+  }
+  return out;
+}
+
+StatusOr<KeyframeCloud> ReadStoredKeyframeCloud(MapStore& store, int64_t keyframe_id,
+                                                const CameraCalibration& camera,
+                                                const OccupancyMapOptions& options) {
+  SEMMAP_ASSIGN_OR_RETURN(const KeyframeRecord record, store.GetKeyframe(keyframe_id));
+  return KeyframeCloudFromRecord(record, camera, options);
+}
+
 StatusOr<std::optional<Eigen::Vector3d>> ReadLayerOrigin(MapStore& store, int64_t map_id,
                                                          const std::string& map_name) {
   StatusOr<MapBlob> blob = store.GetBlob(map_id, kLayerOriginBlobKind);

@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -28,6 +29,29 @@ struct StoredKeyframeCloud {
 // Decodes one stored keyframe. INVALID_ARGUMENT when it has no depth, DATA_LOSS when its images
 // do not decode or do not match the session's camera.
 StatusOr<KeyframeCloud> KeyframeCloudFromRecord(const KeyframeRecord& record,
+                                                const CameraCalibration& camera,
+                                                const OccupancyMapOptions& options);
+
+// A stored keyframe with depth, without its images: what the layers keep of a keyframe whose
+// cloud they read back from the store when they need it (ReadStoredKeyframeCloud).
+struct StoredKeyframeRef {
+  int64_t session_id = 0;
+  int64_t seq = 0;
+  int64_t keyframe_id = 0;  // the store's
+  Eigen::Isometry3d T_world_keyframe = Eigen::Isometry3d::Identity();
+};
+
+// Every keyframe with depth of the map's sessions, without images (session then seq order),
+// and each session's camera. NOT_FOUND for an unknown map.
+struct StoredKeyframeRefs {
+  std::vector<StoredKeyframeRef> keyframes;
+  std::map<int64_t, CameraCalibration> cameras;  // by session id
+};
+StatusOr<StoredKeyframeRefs> ListStoredKeyframes(MapStore& store, const std::string& map_name);
+
+// One stored keyframe's cloud, read by its id. NOT_FOUND when the store no longer has it;
+// otherwise as KeyframeCloudFromRecord.
+StatusOr<KeyframeCloud> ReadStoredKeyframeCloud(MapStore& store, int64_t keyframe_id,
                                                 const CameraCalibration& camera,
                                                 const OccupancyMapOptions& options);
 

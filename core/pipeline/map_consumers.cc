@@ -29,15 +29,17 @@ std::string LayersConsumer::Summary() const {
   const MapLayerStats stats = builder_->stats();
   return fmt::format(
       "{} keyframes ({} restored), {} rebuilds, octree {:.1f} MiB for {:.1f} m3 known ({:.0f} "
-      "kB/m3), cloud {} points ({:.1f} MiB of leaf sums, {} keyframe moves), blobs {:.1f} + "
-      "{:.1f} MiB",
+      "kB/m3), cloud {} points ({:.1f} MiB of leaf sums, {} keyframe moves), keyframe clouds "
+      "{:.1f} MiB in memory ({} evicted, {} read back), blobs {:.1f} + {:.1f} MiB",
       stats.keyframes_inserted, stats.restored_keyframes, stats.rebuilds,
       static_cast<double>(stats.octree_bytes) / (1 << 20), stats.known_volume_m3,
       stats.known_volume_m3 > 0
           ? static_cast<double>(stats.octree_bytes) / 1000.0 / stats.known_volume_m3
           : 0.0,
       stats.cloud_points, static_cast<double>(stats.cloud_layer_bytes) / (1 << 20),
-      stats.cloud_moves, static_cast<double>(stats.occupancy_blob_bytes) / (1 << 20),
+      stats.cloud_moves, static_cast<double>(stats.keyframe_cloud_bytes) / (1 << 20),
+      stats.keyframes_evicted, stats.keyframe_cloud_reads,
+      static_cast<double>(stats.occupancy_blob_bytes) / (1 << 20),
       static_cast<double>(stats.cloud_blob_bytes) / (1 << 20));
 }
 

@@ -16,6 +16,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
@@ -166,8 +167,8 @@ class MapLayersTest : public ::testing::Test {
     }
   }
 
-  // The keyframes as an ingest session stores them (PNG colour and depth, poses).
-  void StoreKeyframes(bool drifted) {
+  // The keyframes as an ingest session stores them (PNG or JPEG colour, PNG depth, poses).
+  void StoreKeyframes(bool drifted, const std::string& colour_format = "png") {
     WriteBatch batch;
     for (const Keyframe& k : Keyframes()) {
       TrajectoryPose pose;
@@ -182,8 +183,8 @@ class MapLayersTest : public ::testing::Test {
       record.stamp_ns = pose.stamp_ns;
       record.T_world_camera = pose.T_world_camera;
       std::vector<uint8_t> png;
-      cv::imencode(".png", k.frame.bgr, png);
-      record.colour = {"png", std::string(png.begin(), png.end())};
+      cv::imencode("." + colour_format, k.frame.bgr, png);
+      record.colour = {colour_format, std::string(png.begin(), png.end())};
       cv::imencode(".png", k.frame.depth, png);
       record.depth = {"png", std::string(png.begin(), png.end())};
       record.depth_scale = synth::kDepthScale;
@@ -217,6 +218,16 @@ class MapLayersTest : public ::testing::Test {
     request.session = session;
     request.voxel_m = voxel;
     return BuildExport(*read_, request, options_);
+  }
+
+  void CorruptKeyframeDepth(int64_t seq) {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(db_.c_str(), &db), SQLITE_OK);
+    const std::string sql =
+        "UPDATE keyframes SET depth = zeroblob(100) WHERE seq = " + std::to_string(seq);
+    EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK)
+        << sqlite3_errmsg(db);
+    sqlite3_close(db);
   }
 
   void CorruptBlob(const std::string& kind, const std::string& sql_value) {
@@ -461,6 +472,146 @@ TEST_F(MapLayersTest, RestartedBuilderRestoresFromStoredKeyframes) {
       OccupancyMap::Build(FreshInput(clouds, true), options_.occupancy);
   ASSERT_TRUE(drifted.ok());
   EXPECT_EQ(Keys(StoredOccupancy()), Keys(*drifted));
+}
+
+// The cloud after each BA-sized nudge of every keyframe, against a fresh PCL build at the nudged
+// poses (colours within `colour_tolerance`).
+void ExpectCloudFollowsNudges(MapLayerBuilder& builder, int64_t session_id,
+                              const std::vector<KeyframeCloud>& clouds,
+                              const MapLayerOptions& options,
+                              const std::function<std::vector<CloudPoint>()>& stored_cloud,
+                              int colour_tolerance) {
+  for (int step = 1; step <= 2; ++step) {
+    std::vector<KeyframePose> nudged;
+    std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> expected_input;
+    for (size_t i = 0; i < clouds.size(); ++i) {
+      const Keyframe& k = Keyframes()[i];
+      Eigen::Isometry3d T = k.T_world_camera;
+      T.translation().x() += 0.006 * step;
+      nudged.push_back({session_id, k.seq, T});
+      expected_input.emplace_back(&clouds[i], T);
+    }
+    ASSERT_TRUE(builder.SetKeyframePoses(nudged, true).ok());
+    ASSERT_TRUE(builder.Flush().ok());
+    StatusOr<PointCloudMap> expected = PointCloudMap::Build(expected_input, options.cloud);
+    ASSERT_TRUE(expected.ok());
+    testing::ExpectSameCloud(stored_cloud(), expected->points(), options.cloud.leaf_size_m, 2e-6,
+                             colour_tolerance);
+  }
+}
+
+TEST_F(MapLayersTest, CloudsBeyondTheBudgetAreReadBackFromTheStoreForRebuildsAndMoves) {
+  options_.keyframe_cloud_budget_bytes = 0;  // none kept once stored
+  StoreKeyframes(/*drifted=*/true);
+  std::unique_ptr<MapLayerBuilder> builder = StartBuilder(/*restore=*/false);
+  ASSERT_NE(builder, nullptr);
+  Feed(*builder, /*drifted=*/true);
+  ASSERT_TRUE(builder->Flush().ok());
+  MapLayerStats stats = builder->stats();  // the persist evicted every stored cloud
+  EXPECT_EQ(stats.keyframes_inserted, Keyframes().size());
+  EXPECT_EQ(stats.keyframes_evicted, Keyframes().size());
+  EXPECT_EQ(stats.keyframe_cloud_bytes, 0u);
+  EXPECT_EQ(stats.keyframe_cloud_reads, Keyframes().size());  // each checked once: the same
+  EXPECT_EQ(stats.cloud_colour_swaps, 0u);
+
+  // The loop closure's rebuild reads every cloud back: the layers of a fresh build.
+  std::vector<KeyframePose> corrected;
+  for (const Keyframe& k : Keyframes()) corrected.push_back({session_.id, k.seq, k.T_world_camera});
+  ASSERT_TRUE(builder->SetKeyframePoses(corrected, true).ok());
+  ASSERT_TRUE(builder->Flush().ok());
+  stats = builder->stats();
+  EXPECT_EQ(stats.rebuilds, 1u);
+  EXPECT_EQ(stats.keyframes_evicted, Keyframes().size());
+  EXPECT_EQ(stats.keyframe_cloud_bytes, 0u);
+  EXPECT_EQ(stats.keyframe_cloud_reads, 2 * Keyframes().size());
+  EXPECT_EQ(stats.keyframes_unreadable, 0u);
+  const std::vector<KeyframeCloud> clouds = Clouds(options_);
+  StatusOr<OccupancyMap> fresh = OccupancyMap::Build(FreshInput(clouds, false), options_.occupancy);
+  ASSERT_TRUE(fresh.ok());
+  EXPECT_EQ(Keys(StoredOccupancy()), Keys(*fresh));
+  StatusOr<PointCloudMap> cloud = PointCloudMap::Build(FreshInput(clouds, false), options_.cloud);
+  ASSERT_TRUE(cloud.ok());
+  testing::ExpectSameCloud(StoredCloud(), cloud->points(), options_.cloud.leaf_size_m, 2e-6, 1);
+
+  // Bundle adjustment's small moves read each moved keyframe back; the PNG-stored colours come
+  // back exactly, so the cloud is a fresh build's.
+  ExpectCloudFollowsNudges(
+      *builder, session_.id, clouds, options_, [&] { return StoredCloud(); }, 1);
+  EXPECT_EQ(builder->stats().keyframe_cloud_reads, 4 * Keyframes().size());
+  EXPECT_EQ(builder->stats().rebuilds, 1u);
+}
+
+TEST_F(MapLayersTest, CloudsEvictedFromAJpegStoreTakeTheStoredColoursAndMoveExactly) {
+  options_.keyframe_cloud_budget_bytes = 0;
+  StoreKeyframes(/*drifted=*/false, "jpeg");  // what the store keeps of raw colour frames
+  std::unique_ptr<MapLayerBuilder> builder = StartBuilder(/*restore=*/false);
+  ASSERT_NE(builder, nullptr);
+  Feed(*builder, /*drifted=*/false);
+  ASSERT_TRUE(builder->Flush().ok());  // evicted: each read back once, its JPEG colours swapped in
+  MapLayerStats stats = builder->stats();
+  EXPECT_EQ(stats.keyframes_evicted, Keyframes().size());
+  EXPECT_EQ(stats.cloud_colour_swaps, Keyframes().size());
+  EXPECT_EQ(stats.keyframe_cloud_reads, Keyframes().size());
+  // The clouds a read-back gives: the live points, the JPEG's colours.
+  std::vector<KeyframeCloud> from_jpeg;
+  for (const Keyframe& k : Keyframes()) {
+    std::vector<uint8_t> jpeg;
+    cv::imencode(".jpeg", k.frame.bgr, jpeg);
+    StatusOr<KeyframeCloud> cloud =
+        MakeKeyframeCloud({k.frame.depth, synth::kDepthScale}, cv::imdecode(jpeg, cv::IMREAD_COLOR),
+                          SharedRenderer().camera(), options_.occupancy);
+    ASSERT_TRUE(cloud.ok());
+    from_jpeg.push_back(std::move(cloud).value());
+  }
+  ASSERT_NE(from_jpeg[0].colours, Clouds(options_)[0].colours);
+  // Taken out and put back with the same colours: exactly a fresh build, no rebuild.
+  ExpectCloudFollowsNudges(
+      *builder, session_.id, from_jpeg, options_, [&] { return StoredCloud(); }, 1);
+  stats = builder->stats();
+  EXPECT_EQ(stats.rebuilds, 0u);
+  EXPECT_EQ(stats.keyframe_cloud_reads, 3 * Keyframes().size());
+}
+
+TEST_F(MapLayersTest, CloudsNotYetStoredStayInMemoryWhateverTheBudget) {
+  options_.keyframe_cloud_budget_bytes = 0;
+  std::unique_ptr<MapLayerBuilder> builder = StartBuilder(/*restore=*/false);
+  ASSERT_NE(builder, nullptr);
+  Feed(*builder, /*drifted=*/false);  // the store has no keyframes: nothing can be read back
+  ASSERT_TRUE(builder->Flush().ok());
+  const MapLayerStats stats = builder->stats();
+  EXPECT_EQ(stats.keyframes_evicted, 0u);
+  EXPECT_GT(stats.keyframe_cloud_bytes, 12u * 1000);
+}
+
+TEST_F(MapLayersTest, RestoreReadsKeyframesOneAtATimeAndLeavesADamagedOneOut) {
+  options_.keyframe_cloud_budget_bytes = 0;
+  StoreKeyframes(/*drifted=*/false);
+  // One keyframe's depth no longer decodes (stored that way, checksums do not cover images).
+  CorruptKeyframeDepth(Keyframes()[3].seq);
+  std::unique_ptr<MapLayerBuilder> builder = StartBuilder(/*restore=*/true);
+  ASSERT_NE(builder, nullptr);
+  ASSERT_TRUE(builder->Flush().ok());  // damage is a warning, not an error for the map
+  const MapLayerStats stats = builder->stats();
+  EXPECT_EQ(stats.restored_keyframes, Keyframes().size());
+  EXPECT_EQ(stats.keyframes_unreadable, 1u);
+  EXPECT_EQ(stats.keyframes_inserted, Keyframes().size() - 1);
+  EXPECT_EQ(stats.keyframe_cloud_reads, Keyframes().size() - 1);
+  EXPECT_EQ(stats.keyframe_cloud_bytes, 0u);
+  std::vector<KeyframeCloud> clouds = Clouds(options_);
+  clouds.erase(clouds.begin() + 3);
+  std::vector<std::pair<const KeyframeCloud*, Eigen::Isometry3d>> input;
+  for (size_t i = 0, c = 0; i < Keyframes().size(); ++i) {
+    if (i != 3) input.emplace_back(&clouds[c++], Keyframes()[i].T_world_camera);
+  }
+  StatusOr<OccupancyMap> fresh = OccupancyMap::Build(input, options_.occupancy);
+  ASSERT_TRUE(fresh.ok());
+  EXPECT_EQ(Keys(StoredOccupancy()), Keys(*fresh));
+  // Its pose still comes with corrections; it stays out without errors.
+  std::vector<KeyframePose> moved;
+  for (const Keyframe& k : Keyframes()) moved.push_back({session_.id, k.seq, Drifted(k)});
+  ASSERT_TRUE(builder->SetKeyframePoses(moved, true).ok());
+  EXPECT_TRUE(builder->Flush().ok());
+  EXPECT_EQ(builder->stats().keyframes_inserted, Keyframes().size() - 1);
 }
 
 TEST_F(MapLayersTest, BadImagesAreReportedAtFlushAndTheBuilderCarriesOn) {

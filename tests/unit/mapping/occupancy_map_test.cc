@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -689,6 +690,51 @@ TEST_F(OccupancyMapRoomTest, BuildStopsAtAFailingKeyframeOrACancel) {
           .status();
   EXPECT_EQ(cancelled.code(), StatusCode::kCancelled) << cancelled.ToString();
   EXPECT_EQ(asked, 4);
+}
+
+TEST_F(OccupancyMapRoomTest, BuildFromASourceReadsKeyframesInOrderAndMakesTheSameTree) {
+  const auto keyframes = AtPoses(*room_keyframes, Eigen::Isometry3d::Identity());
+  StatusOr<OccupancyMap> from_vector = OccupancyMap::Build(keyframes, {});
+  ASSERT_TRUE(from_vector.ok());
+  // Each cloud a copy made when asked for (as the layers read evicted ones back).
+  std::atomic<size_t> asked{0};
+  std::vector<size_t> inserted;
+  const auto source = [&](size_t i)
+      -> StatusOr<std::pair<std::shared_ptr<const KeyframeCloud>, Eigen::Isometry3d>> {
+    EXPECT_EQ(i, asked.fetch_add(1));
+    return std::make_pair(std::make_shared<const KeyframeCloud>(*keyframes[i].first),
+                          keyframes[i].second);
+  };
+  StatusOr<OccupancyMap> from_source =
+      OccupancyMap::Build(keyframes.size(), source, {}, {},
+                          [&](size_t i, const std::shared_ptr<const KeyframeCloud>& cloud) {
+                            EXPECT_EQ(cloud->points, keyframes[i].first->points);
+                            inserted.push_back(i);
+                          });
+  ASSERT_TRUE(from_source.ok()) << from_source.status().ToString();
+  EXPECT_EQ(*from_source->SerializeOt(), *from_vector->SerializeOt());
+  EXPECT_EQ(asked.load(), keyframes.size());
+  ASSERT_EQ(inserted.size(), keyframes.size());
+  for (size_t i = 0; i < inserted.size(); ++i) EXPECT_EQ(inserted[i], i);
+
+  // The source's error ends the build, named by keyframe; a null cloud is refused.
+  const auto failing = [&](size_t i)
+      -> StatusOr<std::pair<std::shared_ptr<const KeyframeCloud>, Eigen::Isometry3d>> {
+    if (i == 2) return DataLossError("stored depth damaged");
+    return std::make_pair(std::shared_ptr<const KeyframeCloud>(), keyframes[i].second);
+  };
+  const Status failed = OccupancyMap::Build(keyframes.size(), failing, {}).status();
+  EXPECT_EQ(failed.code(), StatusCode::kInvalidArgument) << failed.ToString();
+  EXPECT_NE(failed.message().find("keyframe 0"), std::string::npos) << failed.ToString();
+  const auto damaged = [&](size_t i)
+      -> StatusOr<std::pair<std::shared_ptr<const KeyframeCloud>, Eigen::Isometry3d>> {
+    if (i == 2) return DataLossError("stored depth damaged");
+    return std::make_pair(std::make_shared<const KeyframeCloud>(*keyframes[i].first),
+                          keyframes[i].second);
+  };
+  const Status lost = OccupancyMap::Build(keyframes.size(), damaged, {}).status();
+  EXPECT_EQ(lost.code(), StatusCode::kDataLoss) << lost.ToString();
+  EXPECT_NE(lost.message().find("keyframe 2"), std::string::npos) << lost.ToString();
 }
 
 TEST(OccupancyMapTest, BadInputsAreErrors) {
