@@ -108,7 +108,7 @@ Status KeyframeCloudCache::EvictOverBudget(const BeforeDrop& before_drop) {
       auto [it, first] = listed.try_emplace(key.first);
       if (first) {
         std::map<int64_t, int64_t> stored;
-        const Status status = reader_([&](MapStore& store) -> Status {
+        Status status = reader_([&](MapStore& store) -> Status {
           SEMMAP_ASSIGN_OR_RETURN(std::vector<KeyframeRecord> records,
                                   store.ListKeyframes(key.first, /*with_images=*/false));
           for (const KeyframeRecord& record : records) {
