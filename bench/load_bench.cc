@@ -209,6 +209,9 @@ int Run(int argc, const char* const* argv) {
   args.AddFlag("duration-s", "S", "soak: keep streaming new sessions for S seconds (default 0)");
   args.AddFlag("dataset", "DIR", "TUM-layout RGB-D sequence with ground truth (default teddy)");
   args.AddFlag("cancel-rounds", "N", "cancelled exports measured after the load (default 8)");
+  args.AddFlag("map-cloud-budget-mb", "MB",
+               "semmapd's keyframe cloud budget per map (default: semmapd's); a small one "
+               "shows the plateau within a short soak");
   if (Status parsed = args.Parse(argc, argv); !parsed.ok()) {
     std::cerr << "load_bench: " << parsed.message() << "\n" << args.Usage();
     return 2;
@@ -244,9 +247,13 @@ int Run(int argc, const char* const* argv) {
   testing::ServerProcess server;
   // Room for every map to stay open: the bench measures load, not map eviction.
   const std::string max_maps = std::to_string(*known + *rgbd + 1);
-  if (Status started = server.Start(temp.File("data"), {"--log-level", "warning", "--max-open-maps",
-                                                        max_maps, "--max-idle-maps", max_maps});
-      !started.ok()) {
+  std::vector<std::string> server_args = {"--log-level", "warning",         "--max-open-maps",
+                                          max_maps,      "--max-idle-maps", max_maps};
+  if (args.Has("map-cloud-budget-mb")) {
+    server_args.emplace_back("--map-cloud-budget-mb");
+    server_args.push_back(args.Get("map-cloud-budget-mb", ""));
+  }
+  if (Status started = server.Start(temp.File("data"), server_args); !started.ok()) {
     std::cerr << "load_bench: semmapd does not start: " << started.ToString() << "\n";
     return 1;
   }

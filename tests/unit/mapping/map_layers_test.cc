@@ -220,23 +220,19 @@ class MapLayersTest : public ::testing::Test {
     return BuildExport(*read_, request, options_);
   }
 
-  void CorruptKeyframeDepth(int64_t seq) {
+  // Changes the store under the builder, as damage on disk would.
+  void ExecSql(const std::string& sql) {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(db_.c_str(), &db), SQLITE_OK);
-    const std::string sql =
-        "UPDATE keyframes SET depth = zeroblob(100) WHERE seq = " + std::to_string(seq);
     EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK)
         << sqlite3_errmsg(db);
     sqlite3_close(db);
   }
-
+  void CorruptKeyframeDepth(int64_t seq) {
+    ExecSql("UPDATE keyframes SET depth = zeroblob(100) WHERE seq = " + std::to_string(seq));
+  }
   void CorruptBlob(const std::string& kind, const std::string& sql_value) {
-    sqlite3* db = nullptr;
-    ASSERT_EQ(sqlite3_open(db_.c_str(), &db), SQLITE_OK);
-    const std::string sql = "UPDATE blobs SET data = " + sql_value + " WHERE kind = '" + kind + "'";
-    EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK)
-        << sqlite3_errmsg(db);
-    sqlite3_close(db);
+    ExecSql("UPDATE blobs SET data = " + sql_value + " WHERE kind = '" + kind + "'");
   }
 
   std::unique_ptr<testing::TestStore> store_;
