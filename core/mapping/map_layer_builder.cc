@@ -232,8 +232,8 @@ bool MapLayerBuilder::MatchStoredCloud(const Key& key, const KeyframeCloud& in_m
   StatusOr<std::shared_ptr<const KeyframeCloud>> read = cache_.Read(stored);
   if (!read.ok()) return false;  // keep it: it could not be moved or rebuilt otherwise
   const KeyframeCloud& again = **read;
-  const auto it = entries_.find(key);
   if (again.points == in_memory.points && again.colours == in_memory.colours) return true;
+  const auto it = entries_.find(key);
   if (it == entries_.end() || !it->second.T_layer_in_cloud) return true;
   // The store re-encoded its colours: the cloud layer takes the read-back colours now, so that
   // taking the keyframe out later (with what is read back then) is exact.
@@ -376,15 +376,14 @@ void MapLayerBuilder::Rebuild() {
   // Evicted clouds are read back on the build's ray-casting thread, a few keyframes ahead of
   // the tree, and fed to the new coloured cloud as they go in: never all in memory at once. A
   // keyframe the store can no longer give (removed, damaged) is left out, not the whole rebuild.
-  std::vector<char> unreadable(placed.size(), 0);  // written before its keyframe is handed over
+  // Why keyframe i could not be read back (OK when it could); written before it is handed over.
+  std::vector<Status> unreadable(placed.size());
   std::vector<char> in_cloud(placed.size(), 0);
   const auto source = [&](size_t i)
       -> StatusOr<std::pair<std::shared_ptr<const KeyframeCloud>, Eigen::Isometry3d>> {
     StatusOr<std::shared_ptr<const KeyframeCloud>> read = cache_.Read(sources[i]);
     if (!read.ok() && Unreadable(read.status())) {
-      LogWarning("map '{}' layers: keyframe seq {} left out: {}", map_name_, placed[i].first.second,
-                 read.status().ToString());
-      unreadable[i] = 1;
+      unreadable[i] = read.status();
       return std::make_pair(std::make_shared<const KeyframeCloud>(), placed[i].second);
     }
     SEMMAP_RETURN_IF_ERROR(read.status());
@@ -392,7 +391,7 @@ void MapLayerBuilder::Rebuild() {
   };
   Status added = OkStatus();
   const auto inserted = [&](size_t i, const std::shared_ptr<const KeyframeCloud>& kf) {
-    if (unreadable[i] != 0) return;
+    if (!unreadable[i].ok()) return;
     const Status status = cloud->Add(*kf, placed[i].second);
     if (status.ok()) {
       in_cloud[i] = 1;
@@ -416,14 +415,9 @@ void MapLayerBuilder::Rebuild() {
     entry.T_layer_in_cloud.reset();
   }
   size_t inserted_count = 0;
-  uint64_t left_out = 0;
   for (size_t i = 0; i < placed.size(); ++i) {
+    if (LeaveOutUnreadable(placed[i].first, unreadable[i])) continue;
     Entry& entry = entries_.at(placed[i].first);
-    if (unreadable[i] != 0) {
-      cache_.Erase(placed[i].first);
-      ++left_out;
-      continue;
-    }
     entry.inserted = true;
     entry.T_world_built = *entry.T_world_keyframe;
     ++inserted_count;
@@ -432,7 +426,6 @@ void MapLayerBuilder::Rebuild() {
   dirty_ = true;
   std::lock_guard lock(mutex_);
   stats_.keyframes_inserted = inserted_count;
-  stats_.keyframes_unreadable += left_out;
   ++stats_.rebuilds;
   rebuild_ms_.Add(MillisecondsSince(t0));
 }

@@ -81,9 +81,11 @@ StatusOr<std::optional<Eigen::Vector3d>> FirstKeyframeLayerOrigin(MapStore& stor
   return std::optional<Eigen::Vector3d>();
 }
 
-StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(
-    MapStore& store, const std::string& map_name, const std::string& session_name,
-    const OccupancyMapOptions& options, size_t* damaged, const CancelCheck& cancel) {
+StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(MapStore& store,
+                                                              const std::string& map_name,
+                                                              const std::string& session_name,
+                                                              const OccupancyMapOptions& options,
+                                                              const CancelCheck& cancel) {
   SEMMAP_ASSIGN_OR_RETURN(std::vector<SessionInfo> sessions, store.ListSessions(map_name));
   std::vector<StoredKeyframeCloud> out;
   bool matched = session_name.empty();
@@ -96,10 +98,6 @@ StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(
       if (record.depth.empty()) continue;
       SEMMAP_RETURN_IF_ERROR(CheckNotCancelled(cancel));
       StatusOr<KeyframeCloud> cloud = KeyframeCloudFromRecord(record, session.camera, options);
-      if (!cloud.ok() && damaged != nullptr && cloud.status().code() == StatusCode::kDataLoss) {
-        ++*damaged;
-        continue;
-      }
       SEMMAP_RETURN_IF_ERROR(cloud.status());
       out.push_back({session.id, record.seq, record.T_world_camera,
                      std::make_shared<const KeyframeCloud>(std::move(cloud).value())});

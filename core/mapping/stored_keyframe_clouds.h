@@ -65,12 +65,13 @@ StatusOr<std::optional<Eigen::Vector3d>> FirstKeyframeLayerOrigin(MapStore& stor
                                                                   const std::string& map_name);
 
 // Every keyframe with depth of the map's sessions (only `session_name` when not empty; NOT_FOUND
-// for an unknown one), in session then seq order. Keyframes without depth are skipped. A
-// keyframe whose stored images do not decode is DATA_LOSS, or, with `damaged` given, skipped and
-// counted there (a restore must not fail a map for one damaged keyframe). `cancel` is asked
-// before each keyframe is decoded.
-StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(
-    MapStore& store, const std::string& map_name, const std::string& session_name,
-    const OccupancyMapOptions& options, size_t* damaged = nullptr, const CancelCheck& cancel = {});
+// for an unknown one), in session then seq order, all in memory at once (what an export of one
+// session rebuilds from). Keyframes without depth are skipped. A keyframe whose stored images do
+// not decode is DATA_LOSS. `cancel` is asked before each keyframe is decoded.
+StatusOr<std::vector<StoredKeyframeCloud>> LoadKeyframeClouds(MapStore& store,
+                                                              const std::string& map_name,
+                                                              const std::string& session_name,
+                                                              const OccupancyMapOptions& options,
+                                                              const CancelCheck& cancel = {});
 
 }  // namespace semmap

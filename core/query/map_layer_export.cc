@@ -50,9 +50,8 @@ bool Rebuilds(const ExportRequest& request) {
 StatusOr<std::vector<StoredKeyframeCloud>> LoadClouds(MapStore& store, const ExportRequest& request,
                                                       const OccupancyMapOptions& options,
                                                       const CancelCheck& cancel) {
-  SEMMAP_ASSIGN_OR_RETURN(
-      std::vector<StoredKeyframeCloud> keyframes,
-      LoadKeyframeClouds(store, request.map, request.session, options, nullptr, cancel));
+  SEMMAP_ASSIGN_OR_RETURN(std::vector<StoredKeyframeCloud> keyframes,
+                          LoadKeyframeClouds(store, request.map, request.session, options, cancel));
   if (keyframes.empty()) return NoLayersError(request.map);
   return keyframes;
 }
