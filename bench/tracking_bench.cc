@@ -9,6 +9,7 @@
 //   BM_TrackTeddy   the same on the real TUM fr3/teddy frames (../shared/data; skipped with a
 //                   message when absent): tracking's cost on a real Kinect sequence, alone on
 //                   the machine (the server's figure also waits for the back end's threads)
+//   BM_TrackSequence  the same on the folder $SEMMAP_TRACKING_BENCH_SEQUENCE names
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -182,11 +183,12 @@ void BM_TrackFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_TrackFrame)->Unit(benchmark::kMillisecond);
 
-void BM_TrackTeddy(benchmark::State& state) {
-  const std::string dir = std::string(SEMMAP_SHARED_DATA_DIR) + "/tum_fr3_teddy_200";
+// RgbdTracker::Track over every frame of the TUM-layout sequence in `dir`, a new tracker per
+// pass; `missing` says what to do when it cannot be read.
+void TrackDataset(benchmark::State& state, const std::string& dir, const std::string& missing) {
   StatusOr<Dataset> dataset = OpenDataset(dir);
   if (!dataset.ok() || dataset->depth_scale <= 0) {
-    state.SkipWithError(("no TUM fr3/teddy at " + dir + " (../shared/data/README.md)").c_str());
+    state.SkipWithError(("no RGB-D sequence at " + dir + " (" + missing + ")").c_str());
     return;
   }
   struct Frame {
@@ -236,7 +238,25 @@ void BM_TrackTeddy(benchmark::State& state) {
   state.counters["match_p50_ms"] = P50(match);
   state.counters["pose_p50_ms"] = P50(pose);
 }
+
+void BM_TrackTeddy(benchmark::State& state) {
+  TrackDataset(state, std::string(SEMMAP_SHARED_DATA_DIR) + "/tum_fr3_teddy_200",
+               "../shared/data/README.md");
+}
 BENCHMARK(BM_TrackTeddy)->Unit(benchmark::kMillisecond)->Iterations(200);
+
+// Any TUM-layout sequence named by $SEMMAP_TRACKING_BENCH_SEQUENCE (e.g. one peer_bench or
+// semmap-synth rendered, or 7-Scenes / ICL from ../shared/data/extra), for profiling tracking
+// on data other than teddy; skipped when unset.
+void BM_TrackSequence(benchmark::State& state) {
+  const char* dir = std::getenv("SEMMAP_TRACKING_BENCH_SEQUENCE");
+  if (dir == nullptr || *dir == '\0') {
+    state.SkipWithError("set SEMMAP_TRACKING_BENCH_SEQUENCE to a TUM-layout RGB-D folder");
+    return;
+  }
+  TrackDataset(state, dir, "$SEMMAP_TRACKING_BENCH_SEQUENCE");
+}
+BENCHMARK(BM_TrackSequence)->Unit(benchmark::kMillisecond)->Iterations(300);
 
 }  // namespace
 }  // namespace semmap

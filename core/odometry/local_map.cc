@@ -157,9 +157,14 @@ void LocalMap::Merge(const LocalMapUpdate& update, const Eigen::Isometry3d& T_ne
   descriptors_ = descriptors;
 }
 
-void LocalMap::CountTracked(const std::vector<int>& visible, const std::vector<int>& found) {
+void LocalMap::CountTracked(const std::vector<int>& visible, const std::vector<int>& found,
+                            int64_t frame) {
   for (int i : visible) ++points_[static_cast<size_t>(i)].visible;
-  for (int i : found) ++points_[static_cast<size_t>(i)].found;
+  for (int i : found) {
+    MapPoint& mp = points_[static_cast<size_t>(i)];
+    ++mp.found;
+    mp.last_found_frame = frame;
+  }
 }
 
 void LocalMap::Transform(const Eigen::Isometry3d& T) {

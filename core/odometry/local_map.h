@@ -37,10 +37,11 @@ struct MapPoint {
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
   Eigen::Vector3d information_position = Eigen::Vector3d::Zero();
   int num_depth_observations = 0;
-  int last_keyframe = -1;  // id of the newest keyframe that observed it
-  int octave = 0;          // pyramid level of the newest observation
-  int visible = 0;         // frames that predicted it in view
-  int found = 0;           // ... and matched it as an inlier
+  int last_keyframe = -1;         // id of the newest keyframe that observed it
+  int octave = 0;                 // pyramid level of the newest observation
+  int visible = 0;                // frames that predicted it in view
+  int found = 0;                  // ... and matched it as an inlier
+  int64_t last_found_frame = -1;  // the tracker's number of the last frame that found it
   // The back end fused it into another point (published under that point's id): it is no
   // longer projected or matched, and goes at the next keyframe.
   bool retired = false;
@@ -82,8 +83,9 @@ class LocalMap {
                    const std::vector<int>& point_of_keypoint,
                    std::vector<int64_t>* point_ids = nullptr);
 
-  // Bookkeeping of one tracked frame: points predicted in view and points found (inliers).
-  void CountTracked(const std::vector<int>& visible, const std::vector<int>& found);
+  // Bookkeeping of tracked frame number `frame`: points predicted in view and points found
+  // (inliers).
+  void CountTracked(const std::vector<int>& visible, const std::vector<int>& found, int64_t frame);
 
   // Takes the back end's points (positions re-expressed as T_new_update * p): known ids move
   // to the refined position, unknown ones are added as observed by keyframe `keyframe_id` (so

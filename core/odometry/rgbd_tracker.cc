@@ -136,40 +136,24 @@ void RgbdTracker::ProjectMap(const Eigen::Isometry3d& T_world_camera,
   }
 }
 
-StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
-    const FrameFeatures& current, const Eigen::Isometry3d& T_world_guess, double* match_ms,
-    double* pose_ms) const {
-  if (map_.size() == 0 || current.size() == 0) return std::optional<Solution>();
-  const double scale = options_.local_map.octave_scale;
-  const double pixel_sigma = options_.local_map.pixel_sigma;
-  const auto observations_of = [&](const std::vector<cv::DMatch>& matches) {
-    std::vector<RgbdObservation> obs(matches.size());
-    for (size_t m = 0; m < matches.size(); ++m) {
-      const size_t k = static_cast<size_t>(matches[m].trainIdx);
-      RgbdObservation& o = obs[m];
-      o.point = map_.point(static_cast<size_t>(matches[m].queryIdx)).position_world;
-      o.pixel = Eigen::Vector2d(current.keypoints[k].pt.x, current.keypoints[k].pt.y);
-      o.pixel_sigma = pixel_sigma * std::pow(scale, current.keypoints[k].octave);
-      o.inverse_depth = current.has_depth[k] ? 1.0 / current.points_camera[k].z() : 0.0;
-    }
-    return obs;
-  };
-
-  Solution sol;
-  std::vector<std::optional<cv::Point2f>> predicted;
-  ProjectMap(T_world_guess, &predicted, &sol.visible);
+StatusOr<std::optional<RgbdTracker::MapPass>> RgbdTracker::MatchAndEstimate(
+    const FrameFeatures& current, const std::vector<std::optional<cv::Point2f>>& predicted,
+    const Eigen::Isometry3d& T_world_guess, double* match_ms, double* pose_ms) const {
   Clock::time_point start = Clock::now();
-  SEMMAP_ASSIGN_OR_RETURN(std::vector<cv::DMatch> matches,
+  MapPass pass;
+  SEMMAP_ASSIGN_OR_RETURN(pass.matches,
                           MatchGuided(map_.descriptors(), predicted, current.descriptors,
                                       current.keypoints, options_.matcher));
   *match_ms += MillisecondsSince(start);
-  sol.num_matches = static_cast<int>(matches.size());
-  if (sol.num_matches < options_.motion.min_matches) return std::optional<Solution>();
-
+  if (static_cast<int>(pass.matches.size()) < options_.motion.min_matches) {
+    return std::optional<MapPass>();
+  }
   start = Clock::now();
   std::vector<Eigen::Vector3d> points;
   std::vector<cv::Point2f> pixels;
-  for (const cv::DMatch& m : matches) {
+  points.reserve(pass.matches.size());
+  pixels.reserve(pass.matches.size());
+  for (const cv::DMatch& m : pass.matches) {
     points.push_back(map_.point(static_cast<size_t>(m.queryIdx)).position_world);
     pixels.push_back(current.keypoints[static_cast<size_t>(m.trainIdx)].pt);
   }
@@ -178,29 +162,93 @@ StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
   if (!initial.ok()) {
     *pose_ms += MillisecondsSince(start);
     if (initial.status().code() == StatusCode::kFailedPrecondition) {
-      return std::optional<Solution>();
+      return std::optional<MapPass>();
     }
     return initial.status();
   }
-  RgbdRefinement refined = RefinePoseRgbd(observations_of(matches), options_.camera,
-                                          options_.refiner, initial->T_reference_current.inverse());
+  pass.refined = RefinePoseRgbd(ObservationsOf(current, pass.matches), options_.camera,
+                                options_.refiner, initial->T_reference_current.inverse());
   *pose_ms += MillisecondsSince(start);
+  return std::optional<MapPass>(std::move(pass));
+}
+
+std::vector<RgbdObservation> RgbdTracker::ObservationsOf(
+    const FrameFeatures& current, const std::vector<cv::DMatch>& matches) const {
+  const double scale = options_.local_map.octave_scale;
+  const double pixel_sigma = options_.local_map.pixel_sigma;
+  std::vector<RgbdObservation> obs(matches.size());
+  for (size_t m = 0; m < matches.size(); ++m) {
+    const size_t k = static_cast<size_t>(matches[m].trainIdx);
+    RgbdObservation& o = obs[m];
+    o.point = map_.point(static_cast<size_t>(matches[m].queryIdx)).position_world;
+    o.pixel = Eigen::Vector2d(current.keypoints[k].pt.x, current.keypoints[k].pt.y);
+    o.pixel_sigma = pixel_sigma * std::pow(scale, current.keypoints[k].octave);
+    o.inverse_depth = current.has_depth[k] ? 1.0 / current.points_camera[k].z() : 0.0;
+  }
+  return obs;
+}
+
+StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
+    const FrameFeatures& current, const Eigen::Isometry3d& T_world_guess, double* match_ms,
+    double* pose_ms) const {
+  if (map_.size() == 0 || current.size() == 0) return std::optional<Solution>();
+  Solution sol;
+  std::vector<std::optional<cv::Point2f>> predicted;
+  ProjectMap(T_world_guess, &predicted, &sol.visible);
+
+  // The prediction's wide search first looks for the points the last frame found (ORB-SLAM2's
+  // motion-model step): a few hundred reliable points instead of every point in view, where
+  // the wide radius costs most. The second, tight projection at the pose they give then takes
+  // in the whole map. Too few of them (after a lost frame, a new segment), or no pose from
+  // them: every point in view, as for the first frame.
+  std::optional<MapPass> pass;
+  bool whole_map = true;
+  if (options_.search_last_frame_points_first && options_.map_refine_radius_px > 0 &&
+      last_tracked_frame_) {
+    std::vector<std::optional<cv::Point2f>> recent(predicted.size());
+    int num_recent = 0;
+    for (int i : sol.visible) {
+      const size_t p = static_cast<size_t>(i);
+      if (map_.point(p).last_found_frame != *last_tracked_frame_) continue;
+      recent[p] = predicted[p];
+      ++num_recent;
+    }
+    if (num_recent >= options_.min_guided_inliers) {
+      SEMMAP_ASSIGN_OR_RETURN(pass,
+                              MatchAndEstimate(current, recent, T_world_guess, match_ms, pose_ms));
+      whole_map = false;
+      if (pass && pass->refined.num_inliers < options_.motion.min_inliers) pass.reset();
+    }
+  }
+  if (!pass) {
+    SEMMAP_ASSIGN_OR_RETURN(pass,
+                            MatchAndEstimate(current, predicted, T_world_guess, match_ms, pose_ms));
+    whole_map = true;
+  }
+  if (!pass) return std::optional<Solution>();
+  RgbdRefinement refined = std::move(pass->refined);
+  std::vector<cv::DMatch> matches = std::move(pass->matches);
+  sol.num_matches = static_cast<int>(matches.size());
 
   if (options_.map_refine_radius_px > 0 && refined.num_inliers >= options_.motion.min_inliers) {
     std::vector<int> visible;
     ProjectMap(refined.T_current_reference.inverse(), &predicted, &visible);
     FeatureMatcherOptions tight = options_.matcher;
     tight.guided_radius_px = options_.map_refine_radius_px;
-    start = Clock::now();
+    Clock::time_point start = Clock::now();
     SEMMAP_ASSIGN_OR_RETURN(
         std::vector<cv::DMatch> more,
         MatchGuided(map_.descriptors(), predicted, current.descriptors, current.keypoints, tight));
     *match_ms += MillisecondsSince(start);
     start = Clock::now();
-    RgbdRefinement second = RefinePoseRgbd(observations_of(more), options_.camera, options_.refiner,
-                                           refined.T_current_reference);
+    RgbdRefinement second = RefinePoseRgbd(ObservationsOf(current, more), options_.camera,
+                                           options_.refiner, refined.T_current_reference);
     *pose_ms += MillisecondsSince(start);
-    if (second.num_inliers >= refined.num_inliers) {
+    // After a pass over the last frame's points only, the whole map's pass is the estimate
+    // whenever it holds (its inliers include most of those points).
+    const bool take = whole_map ? second.num_inliers >= refined.num_inliers
+                                : second.num_inliers >= options_.motion.min_inliers;
+    if (take) {
       refined = std::move(second);
       matches = std::move(more);
       sol.visible = std::move(visible);
@@ -299,6 +347,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
                                 " after " + std::to_string(*last_stamp_ns_) + ")");
   }
   TrackingResult result;
+  ++frame_number_;
   SEMMAP_ASSIGN_OR_RETURN(FrameFeatures current,
                           extractor_.Extract(image, depth.raw, depth.depth_scale));
   result.timings.extract_ms = MillisecondsSince(start);
@@ -395,6 +444,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
     result.state = TrackingState::kLost;
     result.T_world_camera = *T_world_last_;
     T_last_velocity_.setIdentity();
+    last_tracked_frame_.reset();  // the next frame searches the whole map
     if (has_depth) {
       // Lost for long enough: the kept keyframes are out of reach. A frame good enough to
       // track from starts a new segment at the last known pose; a poor one stays lost.
@@ -421,7 +471,8 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
   result.state = state;
   result.T_world_camera = T_world_current;
   result.information = best->information;
-  map_.CountTracked(best->visible, best->found);
+  map_.CountTracked(best->visible, best->found, frame_number_);
+  last_tracked_frame_ = frame_number_;
 
   // A frame without depth is tracked (PnP needs no depth of its own); the decider never makes
   // it a keyframe, and the next frame with depth decides.
