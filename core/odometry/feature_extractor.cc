@@ -147,32 +147,73 @@ std::vector<cv::KeyPoint> FeatureExtractor::DetectOrb(const internal::OrbPyramid
   const cv::Mat& grey = pyramid.levels[0];
   const std::vector<int> budgets =
       internal::OrbLevelBudgets(candidates_, options_.orb_levels, options_.orb_scale_factor);
-  std::vector<cv::KeyPoint> candidates =
-      internal::DetectOrbKeypoints(pyramid, options_.orb_fast_threshold, budgets, {});
   const int min_threshold = options_.orb_min_fast_threshold;
-  if (min_threshold <= 0 || min_threshold >= options_.orb_fast_threshold) return candidates;
-  // Sparse cells (fewer candidates than their share of the oversampled budget: plain walls,
-  // dim or blurred patches) get the weaker corners a lower threshold finds there, and only
-  // there: searching the whole image again would double detection's cost.
+  const bool weak_pass = min_threshold > 0 && min_threshold < options_.orb_fast_threshold;
+  std::vector<cv::KeyPoint> passed_over;  // level coordinates
+  std::vector<cv::KeyPoint> candidates = internal::DetectOrbKeypoints(
+      pyramid, options_.orb_fast_threshold, budgets, {}, weak_pass ? &passed_over : nullptr);
+  if (!weak_pass) return candidates;
+  // Cells with fewer candidates than their share of max_features get more, and only there:
+  // - where the threshold found enough corners but the level budgets kept stronger ones
+  //   elsewhere (texture fainter than the rest of the image), the best of those corners;
+  // - where it did not (plain walls, dim or blurred patches), the weaker corners a second
+  //   detection at the lower threshold finds there. Searching the whole image again would
+  //   double detection's cost, and so would searching textured cells again: on noisy images
+  //   the lower threshold finds thousands of corners there.
   const int cols = options_.grid_cols, rows = options_.grid_rows;
   const int share = std::max(1, options_.max_features / (cols * rows));
+  const auto cell_of_level_point = [&](const cv::KeyPoint& k) {
+    const double scale = pyramid.scales[static_cast<size_t>(k.octave)];
+    return CellOf(k.pt * static_cast<float>(scale), grey.cols, grey.rows, cols, rows);
+  };
   std::vector<int> count(static_cast<size_t>(cols * rows), 0);
   for (const cv::KeyPoint& k : candidates) {
     ++count[static_cast<size_t>(CellOf(k.pt, grey.cols, grey.rows, cols, rows))];
   }
-  std::vector<cv::Rect2f> sparse;
+  std::vector<std::vector<cv::KeyPoint>> passed_in_cell(static_cast<size_t>(cols * rows));
+  for (const cv::KeyPoint& k : passed_over) {
+    const size_t cell = static_cast<size_t>(cell_of_level_point(k));
+    if (count[cell] < share) passed_in_cell[cell].push_back(k);
+  }
+  std::vector<cv::Rect2f> plain;
+  std::vector<cv::KeyPoint> weak;
   const float cell_w = static_cast<float>(grey.cols) / static_cast<float>(cols);
   const float cell_h = static_cast<float>(grey.rows) / static_cast<float>(rows);
   for (int cy = 0, cell = 0; cy < rows; ++cy) {
     for (int cx = 0; cx < cols; ++cx, ++cell) {
-      if (count[static_cast<size_t>(cell)] >= share) continue;
-      sparse.emplace_back(static_cast<float>(cx) * cell_w, static_cast<float>(cy) * cell_h, cell_w,
-                          cell_h);
+      const size_t c = static_cast<size_t>(cell);
+      const int missing = share - count[c];
+      if (missing <= 0) continue;
+      std::vector<cv::KeyPoint>& passed = passed_in_cell[c];
+      if (static_cast<int>(passed.size()) < missing) {
+        plain.emplace_back(static_cast<float>(cx) * cell_w, static_cast<float>(cy) * cell_h, cell_w,
+                           cell_h);
+        continue;
+      }
+      // Twice what is missing by FAST score, ranked by Harris as the kept corners were.
+      const size_t offer = std::min(passed.size(), 2 * static_cast<size_t>(missing));
+      std::partial_sort(
+          passed.begin(), passed.begin() + static_cast<ptrdiff_t>(offer), passed.end(),
+          [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
+      for (size_t i = 0; i < offer; ++i) {
+        cv::KeyPoint k = passed[i];
+        const size_t level = static_cast<size_t>(k.octave);
+        const double scale = pyramid.scales[level];
+        k.response = internal::HarrisResponse(
+            pyramid.levels[level], cv::Point(static_cast<int>(k.pt.x), static_cast<int>(k.pt.y)));
+        k.pt.x = static_cast<float>(k.pt.x * scale);
+        k.pt.y = static_cast<float>(k.pt.y * scale);
+        k.size = static_cast<float>(internal::kOrbPatchSize * scale);
+        weak.push_back(k);
+      }
     }
   }
-  if (sparse.empty()) return candidates;
-  std::vector<cv::KeyPoint> weak =
-      internal::DetectOrbKeypoints(pyramid, min_threshold, budgets, sparse);
+  if (!plain.empty()) {
+    std::vector<cv::KeyPoint> found =
+        internal::DetectOrbKeypoints(pyramid, min_threshold, budgets, plain);
+    weak.insert(weak.end(), found.begin(), found.end());
+  }
+  if (weak.empty()) return candidates;
   internal::KeepWithinLevelBudgets(candidates, budgets, &weak);
   FillSparseCells(&candidates, std::move(weak), grey.cols, grey.rows, cols, rows, share);
   return candidates;

@@ -5,6 +5,7 @@
 #include <functional>
 #include <limits>
 #include <numbers>
+#include <numeric>
 #include <opencv2/imgproc.hpp>
 
 namespace semmap::internal {
@@ -14,12 +15,16 @@ constexpr int kFastRadius = 3;   // FAST's circle: no corner within 3 pixels of 
 constexpr int kHarrisBlock = 7;  // cv::ORB's HARRIS_BLOCK_SIZE
 constexpr float kHarrisK = 0.04f;
 
-// Keeps the `n` keypoints of highest response (deterministic for a given input).
-void KeepStrongest(std::vector<cv::KeyPoint>* keypoints, int n) {
+// Keeps the `n` keypoints of highest response (deterministic for a given input); the others go
+// to the end of `dropped` when it is given.
+void KeepStrongest(std::vector<cv::KeyPoint>* keypoints, int n,
+                   std::vector<cv::KeyPoint>* dropped = nullptr) {
   if (static_cast<int>(keypoints->size()) <= n) return;
+  const auto cut = keypoints->begin() + std::max(n, 0);
   std::nth_element(
-      keypoints->begin(), keypoints->begin() + std::max(n, 0), keypoints->end(),
+      keypoints->begin(), cut, keypoints->end(),
       [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
+  if (dropped != nullptr) dropped->insert(dropped->end(), cut, keypoints->end());
   keypoints->resize(static_cast<size_t>(std::max(n, 0)));
 }
 
@@ -137,7 +142,8 @@ void OrientOrbKeypoints(const OrbPyramid& pyramid, std::vector<cv::KeyPoint>* ke
 
 std::vector<cv::KeyPoint> DetectOrbKeypoints(const OrbPyramid& pyramid, int threshold,
                                              const std::vector<int>& level_budgets,
-                                             const std::vector<cv::Rect2f>& regions) {
+                                             const std::vector<cv::Rect2f>& regions,
+                                             std::vector<cv::KeyPoint>* passed_over) {
   std::vector<cv::KeyPoint> out;
   const size_t levels = std::min(pyramid.levels.size(), level_budgets.size());
   for (size_t l = 0; l < levels; ++l) {
@@ -188,12 +194,43 @@ std::vector<cv::KeyPoint> DetectOrbKeypoints(const OrbPyramid& pyramid, int thre
         found.push_back(k);
       }
     }
-    KeepStrongest(&found, 2 * budget);
+    const size_t first_passed_over = passed_over != nullptr ? passed_over->size() : 0;
+    KeepStrongest(&found, 2 * budget, passed_over);
+    std::vector<float> fast_score;
+    if (passed_over != nullptr) {
+      fast_score.reserve(found.size());
+      for (const cv::KeyPoint& k : found) fast_score.push_back(k.response);
+    }
     for (cv::KeyPoint& k : found) {
       k.response =
           HarrisResponse(image, cv::Point(static_cast<int>(k.pt.x), static_cast<int>(k.pt.y)));
     }
-    KeepStrongest(&found, budget);
+    if (passed_over != nullptr && found.size() > static_cast<size_t>(budget)) {
+      // The same selection as KeepStrongest, done on indices to give the FAST scores back.
+      std::vector<size_t> order(found.size());
+      std::iota(order.begin(), order.end(), size_t{0});
+      std::nth_element(order.begin(), order.begin() + budget, order.end(),
+                       [&](size_t a, size_t b) { return found[a].response > found[b].response; });
+      std::vector<cv::KeyPoint> kept;
+      kept.reserve(static_cast<size_t>(budget));
+      for (size_t r = 0; r < order.size(); ++r) {
+        cv::KeyPoint k = found[order[r]];
+        if (r < static_cast<size_t>(budget)) {
+          kept.push_back(k);
+        } else {
+          k.response = fast_score[order[r]];
+          passed_over->push_back(k);
+        }
+      }
+      found = std::move(kept);
+    } else {
+      KeepStrongest(&found, budget);
+    }
+    if (passed_over != nullptr) {
+      for (size_t i = first_passed_over; i < passed_over->size(); ++i) {
+        (*passed_over)[i].octave = static_cast<int>(l);
+      }
+    }
     for (cv::KeyPoint& k : found) {
       k.pt.x = static_cast<float>(k.pt.x * scale);
       k.pt.y = static_cast<float>(k.pt.y * scale);

@@ -37,9 +37,12 @@ std::vector<int> OrbLevelBudgets(int total, int levels, double scale_factor);
 // holding its level-0 position, so adjacent regions never share one). Per level, the 2 * budget
 // strongest by FAST score are scored by Harris and the `budget` best kept, as cv::ORB does. Angles
 // are left at -1: orient only the keypoints kept (OrientOrbKeypoints), half the cost.
+// `passed_over` (may be null) receives the corners found but not kept, in their level's pixel
+// coordinates, with their level as octave and their FAST score as response.
 std::vector<cv::KeyPoint> DetectOrbKeypoints(const OrbPyramid& pyramid, int threshold,
                                              const std::vector<int>& level_budgets,
-                                             const std::vector<cv::Rect2f>& regions);
+                                             const std::vector<cv::Rect2f>& regions,
+                                             std::vector<cv::KeyPoint>* passed_over = nullptr);
 
 // Harris corner response (k = 0.04) over a 7 x 7 block of 3 x 3 Sobel gradients at `p`, scaled
 // as cv::ORB scales it; `p` at least 4 pixels inside `image`.

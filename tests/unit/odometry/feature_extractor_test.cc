@@ -3,10 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <set>
+#include <tuple>
+#include <utility>
 #include <vector>
 
+#include "core/odometry/internal/orb_keypoints.h"
 #include "tests/unit/odometry/odometry_test_util.h"
 
 namespace semmap {
@@ -236,6 +241,61 @@ TEST(FeatureExtractorTest, FaintTextureStillGetsFeaturesWithTheWeakThreshold) {
   FeatureExtractorOptions bad;
   bad.orb_min_fast_threshold = 30;
   EXPECT_EQ(FeatureExtractor::Create(bad, camera).status().code(), StatusCode::kInvalidArgument);
+}
+
+// Three bands: strong texture, fainter texture the main threshold still finds (its cells lose
+// to the strong band in the level budgets), and texture only the weak threshold finds. The weak
+// search runs only where the main one found too little: the fainter band's keypoints are the
+// main threshold's corners (all but the few of cells where it found too few), the faintest band
+// gets the weak threshold's.
+TEST(FeatureExtractorTest, TheWeakThresholdSearchesOnlyWhereTheMainOneFoundTooLittle) {
+  cv::RNG rng(5);
+  cv::Mat image(240, 360, CV_8UC1);
+  const std::pair<int, int> contrast[3] = {{0, 256}, {88, 168}, {122, 136}};
+  for (int band = 0; band < 3; ++band) {
+    cv::Mat blocks(30, 15, CV_8UC1);
+    rng.fill(blocks, cv::RNG::UNIFORM, contrast[band].first, contrast[band].second);
+    cv::resize(blocks, image.colRange(120 * band, 120 * (band + 1)), cv::Size(120, 240), 0, 0,
+               cv::INTER_NEAREST);
+  }
+  CameraCalibration camera;
+  camera.width = 360;
+  camera.height = 240;
+  camera.fx = camera.fy = 260;
+  camera.cx = 179.5;
+  camera.cy = 119.5;
+  FeatureExtractorOptions options;
+  options.grid_cols = 9;
+  options.max_features = 540;  // 10 per cell of the 9 x 6 grid
+  StatusOr<FrameFeatures> features = MakeExtractor(camera, options).Extract(image, cv::Mat(), 0);
+  ASSERT_TRUE(features.ok()) << features.status().ToString();
+
+  // The main threshold's corners of every level.
+  const internal::OrbPyramid pyramid = internal::BuildOrbPyramid(image, 4, 1.2);
+  std::set<std::tuple<int, int, int>> main_corners;
+  for (size_t l = 0; l < pyramid.levels.size(); ++l) {
+    std::vector<cv::KeyPoint> found;
+    cv::FAST(pyramid.levels[l], found, options.orb_fast_threshold, true);
+    for (const cv::KeyPoint& k : found) {
+      main_corners.emplace(static_cast<int>(l), static_cast<int>(k.pt.x), static_cast<int>(k.pt.y));
+    }
+  }
+  int in_band[3] = {0, 0, 0}, main_in_band[3] = {0, 0, 0};
+  for (const cv::KeyPoint& k : features->keypoints) {
+    const int band = std::min(2, static_cast<int>(k.pt.x / 120));
+    const double scale = pyramid.scales[static_cast<size_t>(k.octave)];
+    ++in_band[band];
+    main_in_band[band] += static_cast<int>(
+        main_corners.count({k.octave, static_cast<int>(std::lround(k.pt.x / scale)),
+                            static_cast<int>(std::lround(k.pt.y / scale))}));
+  }
+  std::printf("keypoints per band %d %d %d, of the main threshold %d %d %d\n", in_band[0],
+              in_band[1], in_band[2], main_in_band[0], main_in_band[1], main_in_band[2]);
+  // (Before the weak search was limited, a quarter of the fainter band's keypoints came from it:
+  // 139, 100 of them the main threshold's.)
+  EXPECT_GT(in_band[1], 60);
+  EXPECT_GE(10 * main_in_band[1], 9 * in_band[1]);
+  EXPECT_GE(in_band[2] - main_in_band[2], 10);
 }
 
 }  // namespace

@@ -178,6 +178,51 @@ TEST(OrbKeypointsTest, RegionsKeepOnlyTheirOwnCornersOnce) {
   for (int n : per_level) EXPECT_GT(n, 0);
 }
 
+// What the level budgets cut is handed back: the kept keypoints do not change, and kept and
+// passed over together are every corner FAST finds in each level's interior, the passed-over
+// ones in level pixels with their FAST score.
+TEST(OrbKeypointsTest, CornersCutByTheBudgetsArePassedOver) {
+  const cv::Mat grey = RenderedGrey();
+  const OrbPyramid pyramid = BuildOrbPyramid(grey, 4, 1.2);
+  const std::vector<int> budgets = OrbLevelBudgets(600, 4, 1.2);
+  std::vector<cv::KeyPoint> passed_over;
+  const std::vector<cv::KeyPoint> plain = DetectOrbKeypoints(pyramid, 20, budgets, {});
+  const std::vector<cv::KeyPoint> kept = DetectOrbKeypoints(pyramid, 20, budgets, {}, &passed_over);
+  ASSERT_EQ(kept.size(), plain.size());
+  for (size_t i = 0; i < kept.size(); ++i) {
+    EXPECT_EQ(kept[i].pt, plain[i].pt);
+    EXPECT_EQ(kept[i].response, plain[i].response);
+    EXPECT_EQ(kept[i].octave, plain[i].octave);
+  }
+  ASSERT_GT(passed_over.size(), 100u);
+  std::vector<size_t> per_level(4, 0);
+  for (const cv::KeyPoint& k : kept) ++per_level[static_cast<size_t>(k.octave)];
+  for (const cv::KeyPoint& k : passed_over) {
+    ASSERT_TRUE(k.octave >= 0 && k.octave < 4);
+    const cv::Mat& level = pyramid.levels[static_cast<size_t>(k.octave)];
+    EXPECT_TRUE(k.pt.x >= kOrbEdge && k.pt.x < level.cols - kOrbEdge && k.pt.y >= kOrbEdge &&
+                k.pt.y < level.rows - kOrbEdge)
+        << k.pt << " at level " << k.octave;
+    EXPECT_GE(k.response, 20.0f);  // a FAST score, not a Harris response
+    ++per_level[static_cast<size_t>(k.octave)];
+  }
+  for (size_t l = 0; l < 4; ++l) {
+    const cv::Mat& level = pyramid.levels[l];
+    const cv::Rect interior(kOrbEdge, kOrbEdge, level.cols - 2 * kOrbEdge,
+                            level.rows - 2 * kOrbEdge);
+    // FAST over the interior and the 3 pixels its circle needs around it, as detection runs it.
+    const cv::Rect padded(interior.x - 3, interior.y - 3, interior.width + 6, interior.height + 6);
+    std::vector<cv::KeyPoint> all;
+    cv::FAST(level(padded), all, 20, true);
+    const size_t inside =
+        static_cast<size_t>(std::count_if(all.begin(), all.end(), [&](const cv::KeyPoint& k) {
+          return interior.contains(
+              cv::Point(static_cast<int>(k.pt.x) + padded.x, static_cast<int>(k.pt.y) + padded.y));
+        }));
+    EXPECT_EQ(per_level[l], inside) << "level " << l;
+  }
+}
+
 TEST(OrbKeypointsTest, CentroidAngleFollowsTheBrightSide) {
   cv::Mat right(64, 64, CV_8UC1), down(64, 64, CV_8UC1);
   for (int y = 0; y < 64; ++y) {
