@@ -120,6 +120,9 @@ run_semmap() {
           tracked: (.ingest.frames_stored - .ingest.lost_frames), lost: .ingest.lost_frames,
           keyframes: .ingest.keyframes, loops: .ingest.loop_closures,
           tracking_p50_ms: .ingest.stages.tracking.p50_ms, decode_p50_ms: .ingest.stages.decode.p50_ms,
+          extract_p50_ms: .ingest.stages.tracking_extract.p50_ms,
+          match_p50_ms: .ingest.stages.tracking_match.p50_ms,
+          pose_p50_ms: .ingest.stages.tracking_pose.p50_ms,
           backend_keyframe_p50_ms: .ingest.stages.backend_keyframe.p50_ms,
           backend_keyframe_p95_ms: .ingest.stages.backend_keyframe.p95_ms,
           map_insert_p50_ms: .ingest.stages.map_insert.p50_ms,
@@ -203,6 +206,7 @@ for entry in "${SEQS[@]}"; do
     def line(n; r): if r == null then "  \(n): n/a" else
       "  \(n): ATE \(f(r.ate_m * 1000; 1)) mm (max \(f(r.ate_max_m * 1000; 0)) mm), tracked \(r.tracked)/\(r.frames), keyframes \(r.keyframes), tracking p50 \(f(r.tracking_p50_ms; 1)) ms, \(if r.streaming_fps != null then "\(f(r.streaming_fps; 1)) frames/s streaming, \(f(r.fps; 1)) with the session close (\(f(r.close_s; 2)) s)" else "\(f(r.fps; 1)) frames/s (feed loop)" end), peak RSS \(f(r.peak_rss_mb; 0)) MB" end;
     line("semmap   "; .semmap), line("ORB-SLAM2"; .orbslam2),
+    (if .semmap != null then "  semmap tracking p50 by part: extraction \(f(.semmap.extract_p50_ms; 1)) ms, matching \(f(.semmap.match_p50_ms; 1)) ms, pose \(f(.semmap.pose_p50_ms; 1)) ms" else empty end),
     (if .semmap != null then "  semmap back end: keyframe p50 \(f(.semmap.backend_keyframe_p50_ms; 1)) ms / p95 \(f(.semmap.backend_keyframe_p95_ms; 1)) ms, map layer insert p50 \(f(.semmap.map_insert_p50_ms; 1)) ms, decode p50 \(f(.semmap.decode_p50_ms; 1)) ms; loops \(.semmap.loops)" else empty end),
     (if .ratio != null then "  semmap / ORB-SLAM2: ATE \(f(.ratio.ate; 2)), tracking p50 \(f(.ratio.tracking_p50; 2)), frames/s \(f(.ratio.fps; 2)) streaming (\(f(.ratio.fps_with_close; 2)) with the close), peak RSS \(f(.ratio.peak_rss; 2))" else empty end)' <<<"$row"
 done

@@ -43,6 +43,8 @@ struct FrameEstimate {
   // MONO: the network's depth of the frame in the camera's pixels, stored with keyframes and
   // given to the map's consumers as a sensor's would be.
   std::optional<DecodedDepth> predicted_depth;
+  // RGBD: where tracking's time went (feature extraction, matching, pose estimation).
+  std::optional<TrackingTimings> tracking_timings;
 };
 
 class FrameProcessor {

@@ -299,6 +299,9 @@ Status IngestSession::HandleFrame(IngestFrame& frame,
 
   SEMMAP_ASSIGN_OR_RETURN(FrameIngestor::Ingested ingested, ingestor_->Ingest(decoded, frame));
   report_.tracking_ms().Add(ingested.tracking_ms);
+  if (ingested.estimate.tracking_timings) {
+    report_.AddTrackingParts(*ingested.estimate.tracking_timings);
+  }
   if (ingested.estimate.is_keyframe) report_.keyframe_ms().Add(ingested.keyframe_ms);
   protocol_.Accept(frame.seq);
   SEMMAP_RETURN_IF_ERROR(Submit(std::move(ingested.batch), frame.seq));

@@ -31,6 +31,7 @@ StatusOr<FrameEstimate> RgbdProcessor::Process(const DecodedFrame& frame) {
   estimate.information = tracked->information;
   estimate.keyframe_features = std::move(tracked->keyframe_features);
   estimate.keyframe_point_ids = std::move(tracked->keyframe_point_ids);
+  estimate.tracking_timings = tracked->timings;
   return estimate;
 }
 

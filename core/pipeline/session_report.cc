@@ -41,10 +41,18 @@ IngestSummaryInfo SessionReport::Summary(const SessionInfo* session,
   summary.durable_seq = durable_seq;
   summary.duration_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started_at_).count();
-  summary.stages = {decode_ms_.Summarize(), tracking_ms_.Summarize(), keyframe_ms_.Summarize(),
-                    storage_commit, frame_ms_.Summarize()};
+  summary.stages = {decode_ms_.Summarize(),         tracking_ms_.Summarize(),
+                    keyframe_ms_.Summarize(),       storage_commit,
+                    frame_ms_.Summarize(),          tracking_extract_ms_.Summarize(),
+                    tracking_match_ms_.Summarize(), tracking_pose_ms_.Summarize()};
   for (LatencySummary& stage : map.stages) summary.stages.push_back(std::move(stage));
   return summary;
+}
+
+void SessionReport::AddTrackingParts(const TrackingTimings& parts) {
+  tracking_extract_ms_.Add(parts.extract_ms);
+  tracking_match_ms_.Add(parts.match_ms);
+  tracking_pose_ms_.Add(parts.pose_ms);
 }
 
 void SessionReport::LogEnd(const SessionInfo& session, const MapSessionReport& map) const {

@@ -26,13 +26,16 @@ class SessionReport {
   // Worker-thread stage timings (milliseconds).
   LatencyStats& decode_ms() { return decode_ms_; }
   LatencyStats& tracking_ms() { return tracking_ms_; }
+  // Tracking's parts, from the tracker's own timings (RGBD sessions).
+  void AddTrackingParts(const TrackingTimings& parts);
   LatencyStats& keyframe_ms() { return keyframe_ms_; }
   LatencyStats& frame_ms() { return frame_ms_; }
 
   // Any thread.
   IngestProgressInfo Progress(std::optional<uint64_t> durable_seq, uint32_t queue_depth) const;
   // The worker, at the end: the summary, the stages in the documented order (decode, tracking,
-  // keyframe, storage_commit, frame, then the map's).
+  // keyframe, storage_commit, frame, tracking_extract, tracking_match, tracking_pose, then the
+  // map's).
   IngestSummaryInfo Summary(const SessionInfo* session, const LatencySummary& storage_commit,
                             std::optional<uint64_t> durable_seq, MapSessionReport map) const;
   // One line per session for operators: what the map's back end did so far.
@@ -49,6 +52,9 @@ class SessionReport {
   LatencyStats tracking_ms_{"tracking"};
   LatencyStats keyframe_ms_{"keyframe"};
   LatencyStats frame_ms_{"frame"};
+  LatencyStats tracking_extract_ms_{"tracking_extract"};
+  LatencyStats tracking_match_ms_{"tracking_match"};
+  LatencyStats tracking_pose_ms_{"tracking_pose"};
 };
 
 }  // namespace semmap
