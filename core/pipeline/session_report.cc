@@ -49,6 +49,12 @@ IngestSummaryInfo SessionReport::Summary(const SessionInfo* session,
   return summary;
 }
 
+namespace {
+
+double Mib(size_t bytes) { return static_cast<double>(bytes) / (1024.0 * 1024.0); }
+
+}  // namespace
+
 void SessionReport::AddTrackingParts(const TrackingTimings& parts) {
   tracking_extract_ms_.Add(parts.extract_ms);
   tracking_match_ms_.Add(parts.match_ms);
@@ -65,7 +71,8 @@ void SessionReport::LogEnd(const SessionInfo& session, const MapSessionReport& m
       "by xi, {} taken back by the graph, {} optimisations ({} failed), queue high water {}; "
       "local BA: {} runs ({} failed, {} time-limited, {} shrunk, {} skipped), p50 {:.1f} ms, "
       "{} outlier observations removed, {} map points ({} observations), {} culled, {} fused "
-      "across loops; point fusion: {} observations joined, {} duplicates fused",
+      "across loops; point fusion: {} observations joined, {} duplicates fused; holds ~{:.1f} MiB "
+      "(features {:.1f}, place index {:.1f}, map points {:.1f})",
       session.name, session.map_name, lost_frames_, segments_, stats.keyframes,
       stats.restored_keyframes, stats.keyframes_culled, stats.restored_map_points, stats.candidates,
       stats.loops_accepted, stats.rejected_geometry, stats.rejected_xi, stats.rejected_inconsistent,
@@ -73,7 +80,9 @@ void SessionReport::LogEnd(const SessionInfo& session, const MapSessionReport& m
       stats.local_ba_failures, stats.local_ba_time_limited, stats.local_ba_shrunk,
       stats.local_ba_skipped, stats.local_ba_ms.p50_ms, stats.ba_outliers_removed, stats.map_points,
       stats.map_point_observations, stats.map_points_culled, stats.map_points_fused,
-      stats.map_point_observations_joined, stats.map_points_fused_by_projection);
+      stats.map_point_observations_joined, stats.map_points_fused_by_projection,
+      Mib(stats.features_bytes + stats.place_index_bytes + stats.map_point_bytes),
+      Mib(stats.features_bytes), Mib(stats.place_index_bytes), Mib(stats.map_point_bytes));
 }
 
 }  // namespace semmap

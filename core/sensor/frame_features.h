@@ -21,6 +21,8 @@ struct FrameFeatures {
 
   size_t size() const { return keypoints.size(); }
   size_t NumWithDepth() const;
+  // Heap bytes the arrays hold (capacity, not size): what keeping these features costs.
+  size_t HeldBytes() const;
   bool binary_descriptors() const { return descriptors.depth() == CV_8U; }
 };
 

@@ -291,4 +291,27 @@ void MapPoints::Erase(int64_t id) {
   points_.erase(it);
 }
 
+size_t MapPoints::HeldBytes() const {
+  // A tree or hash node: its value plus about three pointers and the allocator's rounding.
+  constexpr size_t kNodeOverhead = 4 * sizeof(void*);
+  size_t bytes =
+      points_.bucket_count() * sizeof(void*) +
+      points_.size() * (sizeof(std::pair<const int64_t, MapPointState>) + kNodeOverhead) +
+      by_tracker_id_.size() *
+          (sizeof(std::pair<const std::pair<int64_t, int64_t>, int64_t>) + kNodeOverhead) +
+      points_of_keyframe_.capacity() * sizeof(std::vector<int64_t>);
+  for (const auto& [id, point] : points_) {
+    bytes += point.observations.capacity() * sizeof(MapPointObservation) +
+             point.aliases.capacity() * sizeof(std::pair<int64_t, int64_t>);
+  }
+  for (const std::vector<int64_t>& ids : points_of_keyframe_) {
+    bytes += ids.capacity() * sizeof(int64_t);
+  }
+  for (const auto& [session, ids] : recent_) {
+    bytes += sizeof(std::pair<const int64_t, std::vector<int64_t>>) + kNodeOverhead +
+             ids.capacity() * sizeof(int64_t);
+  }
+  return bytes;
+}
+
 }  // namespace semmap

@@ -118,6 +118,8 @@ class MapPoints {
 
   size_t size() const { return points_.size(); }
   size_t num_observations() const { return num_observations_; }
+  // Approximate heap bytes of the points, their observations and the lookup tables.
+  size_t HeldBytes() const;
 
  private:
   void Erase(int64_t id);

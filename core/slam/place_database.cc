@@ -104,4 +104,19 @@ std::vector<PlaceMatch> PlaceDatabase::Query(const BowVector& query, int max_res
   return matches;
 }
 
+size_t PlaceDatabase::HeldBytes() const {
+  // A hash node: the value, the next pointer and the cached hash, rounded up by the allocator.
+  constexpr size_t kHashNodeOverhead = 2 * sizeof(void*);
+  size_t bytes =
+      index_.bucket_count() * sizeof(void*) + slot_of_.bucket_count() * sizeof(void*) +
+      slot_of_.size() * (sizeof(std::pair<const int64_t, uint32_t>) + kHashNodeOverhead) +
+      entries_.capacity() * sizeof(Entry) + free_slots_.capacity() * sizeof(uint32_t);
+  for (const auto& [word, postings] : index_) {
+    bytes += sizeof(std::pair<const WordId, std::vector<Posting>>) + kHashNodeOverhead +
+             postings.capacity() * sizeof(Posting);
+  }
+  for (const Entry& entry : entries_) bytes += entry.words.capacity() * sizeof(WordId);
+  return bytes;
+}
+
 }  // namespace semmap

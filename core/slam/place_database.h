@@ -38,6 +38,8 @@ class PlaceDatabase {
   Status Remove(int64_t entry_id);
   bool Contains(int64_t entry_id) const { return slot_of_.contains(entry_id); }
   size_t size() const { return slot_of_.size(); }
+  // Approximate heap bytes of the index (postings, entries' words, hash tables).
+  size_t HeldBytes() const;
 
   // The best `max_results` entries by score, best first (ties by ascending id), skipping those
   // for which `exclude` (may be empty) returns true; entries sharing no word with the query are

@@ -272,6 +272,22 @@ void SlamBackend::AddAnchor(int64_t session_id, const FrameAnchor& anchor) {
 
 Status SlamBackend::AddFrame(FrameAnchorEvent event) { return Submit(Event(std::move(event))); }
 
+void SlamBackend::CountHeldBytes() {
+  size_t features = 0;
+  for (int i = 0; i < graph_.size(); ++i) {
+    const GraphKeyframe& kf = graph_.node(i);
+    if (kf.features) features += kf.features->HeldBytes();
+  }
+  size_t places = places_.HeldBytes();
+  for (const auto& [node, words] : bow_) {
+    places += sizeof(std::pair<const int, BowVector>) + 4 * sizeof(void*) +
+              words.capacity() * sizeof(BowEntry);
+  }
+  stats_.features_bytes = features;
+  stats_.place_index_bytes = places;
+  stats_.map_point_bytes = map_points_.HeldBytes();
+}
+
 SlamBackendStats SlamBackend::stats() const {
   const StageMetrics stage = metrics();
   std::lock_guard lock(mutex_);
@@ -382,6 +398,7 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   ++stats_.keyframes;
   stats_.map_points = map_points_.size();
   stats_.map_point_observations = map_points_.num_observations();
+  CountHeldBytes();
   if (loop) stats_.loops.push_back(*loop);
   keyframe_ms_.Add(MillisecondsSince(t0));
 }
@@ -749,6 +766,7 @@ void SlamBackend::RestoreMapPoints(const std::vector<MapPointRecord>& records) {
   stats_.restored_map_points += restored;
   stats_.map_points = map_points_.size();
   stats_.map_point_observations = map_points_.num_observations();
+  CountHeldBytes();
 }
 
 void SlamBackend::CullKeyframes(int newest) {

@@ -188,6 +188,12 @@ struct SlamBackendStats {
   uint64_t map_points_fused_by_projection = 0;
   size_t map_points = 0;
   size_t map_point_observations = 0;
+  // Approximate heap bytes the back end holds (updated with each keyframe): the keyframes'
+  // features (descriptors, keypoints, 3D points; culled keyframes none), the place
+  // database, the map points with their observations. What grows with a map's keyframes.
+  size_t features_bytes = 0;
+  size_t place_index_bytes = 0;
+  size_t map_point_bytes = 0;
   size_t queue_high_water = 0;
   LatencySummary keyframe_ms;  // worker time per keyframe (BA, candidates, verification)
   LatencySummary local_ba_ms;
@@ -300,6 +306,9 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   void AddAnchor(int64_t session_id, const FrameAnchor& anchor);
   double EdgeChi2(const GraphEdge& edge) const;
   void SubmitPending();  // submits the pending batch
+
+  // Fills stats_'s held-bytes figures (the caller holds mutex_; O(keyframes)).
+  void CountHeldBytes();
 
   const int64_t map_id_;
   const SlamBackendOptions options_;

@@ -305,6 +305,8 @@ TEST_F(SlamBackendTest, SessionAfterRestartJoinsTheStoredMap) {
   corrections_ = 0;
   std::unique_ptr<SlamBackend> second = Start({}, words, &*snapshot);
   EXPECT_EQ(second->stats().restored_keyframes, lap.size());
+  // With a vocabulary, each keyframe's words are in the place index: a few kB each.
+  EXPECT_GT(second->stats().place_index_bytes, lap.size() * 2000);
   const std::vector<Keyframe> again(lap.begin() + 10, lap.begin() + 20);
   Stream(*second, again, Eigen::Isometry3d::Identity(), /*drift=*/false);
   ASSERT_TRUE(second->Drain().ok());
@@ -449,6 +451,20 @@ TEST_F(SlamBackendTest, PathThatNeverRevisitsHasNoLoop) {
   EXPECT_EQ(stats.loops_accepted, 0u);
   EXPECT_EQ(stats.optimisations, 0u);
   EXPECT_EQ(corrections_, 0);
+  // What it holds: every keyframe's features, at least their arrays' sizes and at most the
+  // capacities' slack more (no vocabulary here: no place index; no point ids: no points).
+  size_t feature_arrays = 0;
+  for (const Keyframe& kf : kfs) {
+    feature_arrays += kf.features->keypoints.size() * sizeof(cv::KeyPoint) +
+                      kf.features->descriptors.total() +
+                      kf.features->points_camera.size() * sizeof(Eigen::Vector3d);
+  }
+  std::printf("%zu keyframes: features %zu bytes (arrays %zu), place index %zu, map points %zu\n",
+              kfs.size(), stats.features_bytes, feature_arrays, stats.place_index_bytes,
+              stats.map_point_bytes);
+  EXPECT_GE(stats.features_bytes, feature_arrays);
+  EXPECT_LT(stats.features_bytes, feature_arrays * 3 / 2);
+  EXPECT_LT(stats.place_index_bytes, 1000u);
 }
 
 // Local bundle adjustment over the keyframes' shared map points undoes most of a biased front
@@ -539,6 +555,8 @@ TEST_F(SlamBackendTest, CullingDropsRedundantKeyframesAndKeepsTheTrajectory) {
   EXPECT_EQ(kept_stats.keyframes_culled, 0u);
   EXPECT_GE(culled_stats.keyframes_culled, kfs.size() / 4);
   EXPECT_LT(culled_stats.map_point_observations, kept_stats.map_point_observations);
+  // Culled keyframes release their features.
+  EXPECT_LT(culled_stats.features_bytes, kept_stats.features_bytes);
   EXPECT_LT(culled_error, kept_error + 0.003);
   EXPECT_LT(culled_error, 0.03);
 
