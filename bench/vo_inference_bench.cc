@@ -12,6 +12,7 @@
 #include "core/odometry/canonical_camera.h"
 #include "core/odometry/mono_vo.h"
 #include "core/odometry/mono_vo_model.h"
+#include "tests/testing/pinhole_camera.h"
 
 namespace semmap {
 namespace {
@@ -30,15 +31,7 @@ std::shared_ptr<const MonoVoModel> Model(benchmark::State& state) {
   return *model;
 }
 
-CameraCalibration Camera640() {
-  CameraCalibration c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 525;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  return c;
-}
+CameraCalibration Camera640() { return testing::PinholeCamera(640, 480, 525); }
 
 cv::Mat Textured(int w, int h, int shift) {
   cv::Mat image(h, w, CV_8UC3);

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/testing/pinhole_camera.h"
 #include "tests/testing/test_store.h"
 
 namespace semmap {
@@ -18,15 +19,7 @@ namespace {
 
 constexpr double kDepthScale = 5000;
 
-CameraCalibration SmallCamera() {
-  CameraCalibration camera;
-  camera.width = 32;
-  camera.height = 24;
-  camera.fx = camera.fy = 30;
-  camera.cx = 16;
-  camera.cy = 12;
-  return camera;
-}
+CameraCalibration SmallCamera() { return testing::PinholeCamera(32, 24, 30, 16, 12); }
 
 // A slanted wall 1-1.5 m away, coloured by position, different for each seq.
 struct Images {

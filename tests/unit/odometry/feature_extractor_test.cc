@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/odometry/internal/orb_keypoints.h"
+#include "tests/testing/pinhole_camera.h"
 #include "tests/unit/odometry/odometry_test_util.h"
 
 namespace semmap {
@@ -223,12 +224,7 @@ TEST(FeatureExtractorTest, FaintTextureStillGetsFeaturesWithTheWeakThreshold) {
   cv::Mat noise(60, 80, CV_8UC1);
   rng.fill(noise, cv::RNG::UNIFORM, 118, 138);
   cv::resize(noise, image, image.size(), 0, 0, cv::INTER_NEAREST);
-  CameraCalibration camera;
-  camera.width = 320;
-  camera.height = 240;
-  camera.fx = camera.fy = 260;
-  camera.cx = 159.5;
-  camera.cy = 119.5;
+  const CameraCalibration camera = testing::PinholeCamera(320, 240, 260);
   FeatureExtractorOptions strong_only;
   strong_only.orb_min_fast_threshold = 0;
   const FeatureExtractor a = MakeExtractor(camera, strong_only);
@@ -258,12 +254,7 @@ TEST(FeatureExtractorTest, TheWeakThresholdSearchesOnlyWhereTheMainOneFoundTooLi
     cv::resize(blocks, image.colRange(120 * band, 120 * (band + 1)), cv::Size(120, 240), 0, 0,
                cv::INTER_NEAREST);
   }
-  CameraCalibration camera;
-  camera.width = 360;
-  camera.height = 240;
-  camera.fx = camera.fy = 260;
-  camera.cx = 179.5;
-  camera.cy = 119.5;
+  const CameraCalibration camera = testing::PinholeCamera(360, 240, 260);
   FeatureExtractorOptions options;
   options.grid_cols = 9;
   options.max_features = 540;  // 10 per cell of the 9 x 6 grid

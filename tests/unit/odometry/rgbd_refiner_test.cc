@@ -8,20 +8,13 @@
 #include <vector>
 
 #include "core/odometry/local_map.h"
+#include "tests/testing/pinhole_camera.h"
 #include "tests/unit/odometry/odometry_test_util.h"
 
 namespace semmap {
 namespace {
 
-CameraCalibration Camera() {
-  CameraCalibration c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 525;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  return c;
-}
+CameraCalibration Camera() { return testing::PinholeCamera(640, 480, 525); }
 
 Eigen::Isometry3d TruePose() {  // T_current_reference
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();

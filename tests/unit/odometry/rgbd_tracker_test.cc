@@ -41,6 +41,16 @@ DecodedDepth Depth(const cv::Mat& raw, double scale) {
   return d;
 }
 
+// `frames` poses of quick handheld motion through the default room.
+std::vector<StampedPose> FastMotion(int frames) {
+  synth::TrajectoryOptions trajectory;
+  trajectory.frames = frames;
+  StatusOr<std::vector<StampedPose>> poses =
+      synth::FastMotionTrajectory(odometry_test::Room().room, trajectory);
+  EXPECT_TRUE(poses.ok()) << poses.status().ToString();
+  return poses.ok() ? std::move(poses).value() : std::vector<StampedPose>{};
+}
+
 TEST(RgbdTrackerTest, SyntheticCircleAteUnderTwoCentimetres) {
   const CameraCalibration camera = synth::DefaultSyntheticCamera();
   const synth::Renderer renderer = MakeRenderer(camera);
@@ -79,13 +89,9 @@ TEST(RgbdTrackerTest, SyntheticCircleAteUnderTwoCentimetres) {
 TEST(RgbdTrackerTest, SearchingTheLastFramesPointsFirstKeepsThePoses) {
   const CameraCalibration camera = synth::DefaultSyntheticCamera();
   const synth::Renderer renderer = MakeRenderer(camera);
-  synth::TrajectoryOptions trajectory;
-  trajectory.frames = 90;
-  StatusOr<std::vector<StampedPose>> poses =
-      synth::FastMotionTrajectory(odometry_test::Room().room, trajectory);
-  ASSERT_TRUE(poses.ok()) << poses.status().ToString();
-  const std::vector<StampedPose>& gt = *poses;
+  const std::vector<StampedPose> gt = FastMotion(90);
   std::vector<synth::RenderedFrame> frames;
+  frames.reserve(gt.size());
   for (const StampedPose& p : gt) frames.push_back(renderer.Render(p.T_world_camera));
   std::vector<std::vector<StampedPose>> estimates;
   for (const bool recent_first : {true, false}) {
@@ -155,12 +161,7 @@ TEST(RgbdTrackerTest, FramesWithoutDepthAreTrackedButNeverKeyframes) {
 TEST(RgbdTrackerTest, SyntheticFastMotionTracksEveryFrame) {
   const CameraCalibration camera = synth::DefaultSyntheticCamera();
   const synth::Renderer renderer = MakeRenderer(camera);
-  synth::TrajectoryOptions trajectory;
-  trajectory.frames = 90;
-  StatusOr<std::vector<StampedPose>> poses =
-      synth::FastMotionTrajectory(odometry_test::Room().room, trajectory);
-  ASSERT_TRUE(poses.ok()) << poses.status().ToString();
-  const std::vector<StampedPose>& gt = *poses;
+  const std::vector<StampedPose> gt = FastMotion(90);
   RgbdTrackerOptions options;
   options.T_world_first = gt.front().T_world_camera;
   RgbdTracker tracker = MakeTracker(camera, options);

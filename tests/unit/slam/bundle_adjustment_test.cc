@@ -5,18 +5,12 @@
 #include <cmath>
 #include <random>
 
+#include "tests/testing/pinhole_camera.h"
+
 namespace semmap {
 namespace {
 
-CameraCalibration TestCamera() {
-  CameraCalibration c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 525;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  return c;
-}
+CameraCalibration TestCamera() { return testing::PinholeCamera(640, 480, 525); }
 
 Eigen::Isometry3d Perturbed(const Eigen::Isometry3d& T, std::mt19937& rng, double sigma_t,
                             double sigma_r) {

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "common/camera.h"
+#include "tests/testing/pinhole_camera.h"
 #include "tests/testing/synth/default_scene.h"
 #include "tests/testing/synth/renderer.h"
 #include "tests/testing/synth/scene.h"
@@ -25,15 +26,7 @@ inline const Scene& DefaultScene() {
   return *scene;
 }
 
-inline CameraCalibration Camera640() {
-  CameraCalibration c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 525.0;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  return c;
-}
+inline CameraCalibration Camera640() { return testing::PinholeCamera(640, 480, 525); }
 
 // The world point seen at pixel (u, v) with depth z metres.
 inline Eigen::Vector3d Unproject(const CameraCalibration& c,
