@@ -162,17 +162,14 @@ std::vector<cv::KeyPoint> FeatureExtractor::DetectOrb(const internal::OrbPyramid
   //   the lower threshold finds thousands of corners there.
   const int cols = options_.grid_cols, rows = options_.grid_rows;
   const int share = std::max(1, options_.max_features / (cols * rows));
-  const auto cell_of_level_point = [&](const cv::KeyPoint& k) {
-    const double scale = pyramid.scales[static_cast<size_t>(k.octave)];
-    return CellOf(k.pt * static_cast<float>(scale), grey.cols, grey.rows, cols, rows);
-  };
   std::vector<int> count(static_cast<size_t>(cols * rows), 0);
   for (const cv::KeyPoint& k : candidates) {
     ++count[static_cast<size_t>(CellOf(k.pt, grey.cols, grey.rows, cols, rows))];
   }
   std::vector<std::vector<cv::KeyPoint>> passed_in_cell(static_cast<size_t>(cols * rows));
   for (const cv::KeyPoint& k : passed_over) {
-    const size_t cell = static_cast<size_t>(cell_of_level_point(k));
+    const size_t cell = static_cast<size_t>(
+        CellOf(internal::AtLevelZero(pyramid, k).pt, grey.cols, grey.rows, cols, rows));
     if (count[cell] < share) passed_in_cell[cell].push_back(k);
   }
   std::vector<cv::Rect2f> plain;
@@ -197,14 +194,10 @@ std::vector<cv::KeyPoint> FeatureExtractor::DetectOrb(const internal::OrbPyramid
           [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
       for (size_t i = 0; i < offer; ++i) {
         cv::KeyPoint k = passed[i];
-        const size_t level = static_cast<size_t>(k.octave);
-        const double scale = pyramid.scales[level];
-        k.response = internal::HarrisResponse(
-            pyramid.levels[level], cv::Point(static_cast<int>(k.pt.x), static_cast<int>(k.pt.y)));
-        k.pt.x = static_cast<float>(k.pt.x * scale);
-        k.pt.y = static_cast<float>(k.pt.y * scale);
-        k.size = static_cast<float>(internal::kOrbPatchSize * scale);
-        weak.push_back(k);
+        k.response =
+            internal::HarrisResponse(pyramid.levels[static_cast<size_t>(k.octave)],
+                                     cv::Point(static_cast<int>(k.pt.x), static_cast<int>(k.pt.y)));
+        weak.push_back(internal::AtLevelZero(pyramid, k));
       }
     }
   }

@@ -232,14 +232,19 @@ std::vector<cv::KeyPoint> DetectOrbKeypoints(const OrbPyramid& pyramid, int thre
       }
     }
     for (cv::KeyPoint& k : found) {
-      k.pt.x = static_cast<float>(k.pt.x * scale);
-      k.pt.y = static_cast<float>(k.pt.y * scale);
       k.octave = static_cast<int>(l);
-      k.size = static_cast<float>(kOrbPatchSize * scale);
-      out.push_back(k);
+      out.push_back(AtLevelZero(pyramid, k));
     }
   }
   return out;
+}
+
+cv::KeyPoint AtLevelZero(const OrbPyramid& pyramid, cv::KeyPoint k) {
+  const double scale = pyramid.scales[static_cast<size_t>(k.octave)];
+  k.pt.x = static_cast<float>(k.pt.x * scale);
+  k.pt.y = static_cast<float>(k.pt.y * scale);
+  k.size = static_cast<float>(kOrbPatchSize * scale);
+  return k;
 }
 
 void KeepWithinLevelBudgets(const std::vector<cv::KeyPoint>& strong,

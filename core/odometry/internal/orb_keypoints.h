@@ -44,6 +44,10 @@ std::vector<cv::KeyPoint> DetectOrbKeypoints(const OrbPyramid& pyramid, int thre
                                              const std::vector<cv::Rect2f>& regions,
                                              std::vector<cv::KeyPoint>* passed_over = nullptr);
 
+// A corner found in its level (`octave` set, level pixels) as detection gives it: level-0 pixels
+// and ORB's patch size at that level.
+cv::KeyPoint AtLevelZero(const OrbPyramid& pyramid, cv::KeyPoint k);
+
 // Harris corner response (k = 0.04) over a 7 x 7 block of 3 x 3 Sobel gradients at `p`, scaled
 // as cv::ORB scales it; `p` at least 4 pixels inside `image`.
 float HarrisResponse(const cv::Mat& image, cv::Point p);
