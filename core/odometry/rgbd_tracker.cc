@@ -199,17 +199,16 @@ StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
   // The prediction's wide search first looks for the points the last frame found (ORB-SLAM2's
   // motion-model step): a few hundred reliable points instead of every point in view, where
   // the wide radius costs most. The second, tight projection at the pose they give then takes
-  // in the whole map. Too few of them (after a lost frame, a new segment), or no pose from
-  // them: every point in view, as for the first frame.
+  // in the whole map. Too few of them (after a lost frame or a new segment the last frame
+  // found none), or no pose from them: every point in view, as for the first frame.
   std::optional<MapPass> pass;
   bool whole_map = true;
-  if (options_.search_last_frame_points_first && options_.map_refine_radius_px > 0 &&
-      last_tracked_frame_) {
+  if (options_.search_last_frame_points_first && options_.map_refine_radius_px > 0) {
     std::vector<std::optional<cv::Point2f>> recent(predicted.size());
     int num_recent = 0;
     for (int i : sol.visible) {
       const size_t p = static_cast<size_t>(i);
-      if (map_.point(p).last_found_frame != *last_tracked_frame_) continue;
+      if (map_.point(p).last_found_frame != frame_number_ - 1) continue;
       recent[p] = predicted[p];
       ++num_recent;
     }
@@ -444,7 +443,6 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
     result.state = TrackingState::kLost;
     result.T_world_camera = *T_world_last_;
     T_last_velocity_.setIdentity();
-    last_tracked_frame_.reset();  // the next frame searches the whole map
     if (has_depth) {
       // Lost for long enough: the kept keyframes are out of reach. A frame good enough to
       // track from starts a new segment at the last known pose; a poor one stays lost.
@@ -472,7 +470,6 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
   result.T_world_camera = T_world_current;
   result.information = best->information;
   map_.CountTracked(best->visible, best->found, frame_number_);
-  last_tracked_frame_ = frame_number_;
 
   // A frame without depth is tracked (PnP needs no depth of its own); the decider never makes
   // it a keyframe, and the next frame with depth decides.

@@ -203,10 +203,9 @@ class RgbdTracker {
   std::optional<Eigen::Isometry3d> T_world_last_;
   Eigen::Isometry3d T_last_velocity_ = Eigen::Isometry3d::Identity();  // T_prev_last
   std::optional<int64_t> last_stamp_ns_;
-  int lost_with_depth_ = 0;                    // consecutive lost frames with depth
-  int64_t frame_number_ = 0;                   // frames given to Track
-  std::optional<int64_t> last_tracked_frame_;  // the last that was tracked (not lost)
-  std::vector<int64_t> keyframe_point_ids_;    // of the keyframe MakeKeyframe made last
+  int lost_with_depth_ = 0;                  // consecutive lost frames with depth
+  int64_t frame_number_ = 0;                 // frames given to Track, this one included
+  std::vector<int64_t> keyframe_point_ids_;  // of the keyframe MakeKeyframe made last
 };
 
 }  // namespace semmap

@@ -398,7 +398,6 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   ++stats_.keyframes;
   stats_.map_points = map_points_.size();
   stats_.map_point_observations = map_points_.num_observations();
-  CountHeldBytes();
   if (loop) stats_.loops.push_back(*loop);
   keyframe_ms_.Add(MillisecondsSince(t0));
 }
@@ -858,6 +857,10 @@ Status SlamBackend::OnFlush() {
   }
   SaveMapPoints();
   SubmitPending();
+  {
+    std::lock_guard lock(mutex_);
+    CountHeldBytes();
+  }
   return writes_.WaitAndTakeError();
 }
 

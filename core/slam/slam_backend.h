@@ -188,9 +188,10 @@ struct SlamBackendStats {
   uint64_t map_points_fused_by_projection = 0;
   size_t map_points = 0;
   size_t map_point_observations = 0;
-  // Approximate heap bytes the back end holds (updated with each keyframe): the keyframes'
-  // features (descriptors, keypoints, 3D points; culled keyframes none), the place
-  // database, the map points with their observations. What grows with a map's keyframes.
+  // Approximate heap bytes the back end holds, counted after a restore and at each Drain (a
+  // walk over every keyframe and point: not on the per-keyframe path): the keyframes' features
+  // (descriptors, keypoints, 3D points; culled keyframes none), the place database, the map
+  // points with their observations. What grows with a map's keyframes.
   size_t features_bytes = 0;
   size_t place_index_bytes = 0;
   size_t map_point_bytes = 0;
