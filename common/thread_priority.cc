@@ -5,6 +5,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <string>
 
@@ -32,8 +33,18 @@ int NiceIncrementOf(ThreadTier tier) {
 }
 
 bool RunCurrentThreadAs(ThreadTier tier) {
-  const int increment = NiceIncrementOf(tier);
-  return increment == 0 || LowerCurrentThreadPriority(increment);
+  // Relative to the process (its main thread), not to the calling thread: a thread inherits its
+  // creator's nice value, and a stage started from a per-frame thread (the SLAM back end, opened
+  // by the session that first streams into its map) would otherwise land a tier lower (19).
+  errno = 0;
+  const int process = getpriority(PRIO_PROCESS, static_cast<id_t>(getpid()));
+  if (process == -1 && errno != 0) return false;
+  const auto tid = static_cast<id_t>(syscall(SYS_gettid));
+  errno = 0;
+  const int current = getpriority(PRIO_PROCESS, tid);
+  if (current == -1 && errno != 0) return false;
+  const int target = std::min(process + NiceIncrementOf(tier), 19);
+  return current == target || setpriority(PRIO_PROCESS, tid, target) == 0;
 }
 
 void NameCurrentThread(std::string_view name) {

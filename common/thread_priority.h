@@ -11,15 +11,16 @@ namespace semmap {
 
 enum class ThreadTier {
   kServing,     // gRPC's threads, query workers, the storage writer: the process's priority
-  kPerFrame,    // ingest decode and tracking, the SLAM back end: nice + 10
-  kBackground,  // map layer rebuilds, object recognition: nice + 19 (the lowest)
+  kPerFrame,    // ingest decode and tracking: nice + 10
+  kBackground,  // the SLAM back end, map layers, object recognition: nice + 19 (the lowest)
 };
 
 // The nice increment of a tier relative to the serving threads.
 int NiceIncrementOf(ThreadTier tier);
 
-// Moves the calling thread (started at the process's priority) to `tier`. Best effort, as
-// LowerCurrentThreadPriority.
+// Moves the calling thread to `tier`: the process's (main thread's) nice value plus the tier's
+// increment, whatever the thread inherited from the thread that started it. Best effort, as
+// LowerCurrentThreadPriority (raising a thread's priority back may need privileges).
 bool RunCurrentThreadAs(ThreadTier tier);
 
 // Lowers the calling thread's scheduling priority (Linux: its nice value by `increment`, 10 by

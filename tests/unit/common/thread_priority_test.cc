@@ -78,5 +78,28 @@ TEST(ThreadPriorityTest, TiersRunServingFirstThenPerFrameThenBackground) {
             std::min(per_frame_before + NiceIncrementOf(ThreadTier::kPerFrame), 19));
 }
 
+// A stage started from a per-frame thread (the SLAM back end, opened by the session streaming
+// into its map) must land in the per-frame tier, not a tier below what it inherited.
+TEST(ThreadPriorityTest, TiersAreRelativeToTheProcessNotTheStartingThread) {
+  const int process = NiceOfThisThread();  // the test's main thread
+  int outer = 0, inner = 0, background = 0;
+  bool moved = false;
+  std::thread([&] {
+    moved = RunCurrentThreadAs(ThreadTier::kPerFrame);
+    outer = NiceOfThisThread();
+    std::thread([&] {
+      EXPECT_TRUE(RunCurrentThreadAs(ThreadTier::kPerFrame));
+      inner = NiceOfThisThread();
+      EXPECT_TRUE(RunCurrentThreadAs(ThreadTier::kBackground));
+      background = NiceOfThisThread();
+    }).join();
+  }).join();
+  if (!moved) GTEST_SKIP() << "this system refuses setpriority";
+  const int per_frame = std::min(process + NiceIncrementOf(ThreadTier::kPerFrame), 19);
+  EXPECT_EQ(outer, per_frame);
+  EXPECT_EQ(inner, per_frame);
+  EXPECT_EQ(background, std::min(process + NiceIncrementOf(ThreadTier::kBackground), 19));
+}
+
 }  // namespace
 }  // namespace semmap
