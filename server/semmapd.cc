@@ -117,6 +117,14 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   SEMMAP_ASSIGN_OR_RETURN(ba.final_ba, args.GetOnOff("final-ba", ba.final_ba));
   semmap::PointFusionOptions& fusion = options->ingest.slam.point_fusion;
   SEMMAP_ASSIGN_OR_RETURN(fusion.enabled, args.GetOnOff("point-fusion", fusion.enabled));
+  size_t& features_budget = options->ingest.slam.features_memory_bytes;
+  SEMMAP_ASSIGN_OR_RETURN(
+      long long features_mb,
+      args.GetInt("slam-features-mb", static_cast<long long>(features_budget >> 20)));
+  if (features_mb < 0 || features_mb > (1LL << 20)) {
+    return semmap::InvalidArgumentError("--slam-features-mb must be in [0, 1048576]");
+  }
+  features_budget = static_cast<size_t>(features_mb) << 20;
   semmap::MapLayerOptions& map = options->ingest.layers;
   SEMMAP_ASSIGN_OR_RETURN(map.enabled, args.GetOnOff("map-layers", map.enabled));
   SEMMAP_ASSIGN_OR_RETURN(map.occupancy.resolution_m,
@@ -245,6 +253,10 @@ int main(int argc, char** argv) {
                "join or fuse them (a revisited place shares its points and keyframe culling "
                "can drop the old keyframes; measured, it costs ~0.5 mm ATE; needs --local-ba "
                "on; default off)");
+  args.AddFlag("slam-features-mb", "MB",
+               "keyframe features each open map's SLAM back end keeps in memory; beyond it the "
+               "least recently used are read back from the store when loop closure or a "
+               "tracker's local map needs them (default 32, ~400 keyframes; 0: all kept)");
   args.AddFlag("map-layers", "on|off",
                "build the 3D layers (OctoMap occupancy, coloured cloud) from keyframes with depth "
                "(default on)");

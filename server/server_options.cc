@@ -115,6 +115,7 @@ std::string ServerOptions::ToString() const {
       << " local_ba=" << (ingest.slam.local_ba.enabled ? "on" : "off")
       << " final_ba=" << (ingest.slam.local_ba.final_ba ? "on" : "off")
       << " point_fusion=" << (ingest.slam.point_fusion.enabled ? "on" : "off")
+      << " slam_features_mb=" << (ingest.slam.features_memory_bytes >> 20)
       << " map_layers=" << (ingest.layers.enabled ? "on" : "off")
       << " map_resolution=" << ingest.layers.occupancy.resolution_m
       << " map_max_range=" << ingest.layers.occupancy.max_range_m

@@ -85,6 +85,10 @@ class MapStore {
   // Keyframes of a session in seq order with their features but no images (what the SLAM back
   // end reloads); DATA_LOSS when stored features fail their checksum.
   virtual StatusOr<std::vector<KeyframeRecord>> ListKeyframeFeatures(int64_t session_id) = 0;
+  // One keyframe with its features but no images (what the SLAM back end reads back for a
+  // keyframe whose features it let go); features empty when it has none (culled, KNOWN_POSES).
+  // NOT_FOUND when the session has no keyframe `seq`; DATA_LOSS as ListKeyframeFeatures.
+  virtual StatusOr<KeyframeRecord> GetKeyframeFeatures(int64_t session_id, int64_t seq) = 0;
   virtual StatusOr<std::vector<LinkRecord>> ListLinks(int64_t map_id) = 0;
   // The map's stored map points (any order); observations of keyframes no longer stored (a
   // removed session) are left out, and points left without observations too.

@@ -72,7 +72,8 @@ void SessionReport::LogEnd(const SessionInfo& session, const MapSessionReport& m
       "local BA: {} runs ({} failed, {} time-limited, {} shrunk, {} skipped), p50 {:.1f} ms, "
       "{} outlier observations removed, {} map points ({} observations), {} culled, {} fused "
       "across loops; point fusion: {} observations joined, {} duplicates fused; holds ~{:.1f} MiB "
-      "(features {:.1f}, place index {:.1f}, map points {:.1f})",
+      "(features {:.1f}, place index {:.1f}, map points {:.1f}); keyframe features {} released, "
+      "{} read back, {} unreadable",
       session.name, session.map_name, lost_frames_, segments_, stats.keyframes,
       stats.restored_keyframes, stats.keyframes_culled, stats.restored_map_points, stats.candidates,
       stats.loops_accepted, stats.rejected_geometry, stats.rejected_xi, stats.rejected_inconsistent,
@@ -82,7 +83,8 @@ void SessionReport::LogEnd(const SessionInfo& session, const MapSessionReport& m
       stats.map_point_observations, stats.map_points_culled, stats.map_points_fused,
       stats.map_point_observations_joined, stats.map_points_fused_by_projection,
       Mib(stats.features_bytes + stats.place_index_bytes + stats.map_point_bytes),
-      Mib(stats.features_bytes), Mib(stats.place_index_bytes), Mib(stats.map_point_bytes));
+      Mib(stats.features_bytes), Mib(stats.place_index_bytes), Mib(stats.map_point_bytes),
+      stats.features_released, stats.features_read_back, stats.features_unreadable);
 }
 
 }  // namespace semmap

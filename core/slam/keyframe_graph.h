@@ -46,6 +46,12 @@ class KeyframeGraph {
   // Marks the keyframe culled and releases its features; it keeps its edges, so the pose
   // graph still chains its neighbours through it.
   void Cull(int index);
+  // A kept keyframe's features released (null) or read back (keyframe_feature_memory.h); a
+  // culled one keeps none.
+  void SetFeatures(int index, std::shared_ptr<const FrameFeatures> features) {
+    GraphKeyframe& node = nodes_[static_cast<size_t>(index)];
+    if (!node.culled) node.features = std::move(features);
+  }
   void SetPose(int index, const Eigen::Isometry3d& T_world_keyframe) {
     nodes_[static_cast<size_t>(index)].T_world_keyframe = T_world_keyframe;
   }

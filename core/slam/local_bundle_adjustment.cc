@@ -52,16 +52,12 @@ StatusOr<LocalBundleAdjustmentReport> AdjustWindow(const BundleAdjustmentWindow&
     ba_points.push_back({id, p->position_world, false});
     for (const MapPointObservation& o : p->observations) {
       if (!in_window[static_cast<size_t>(o.keyframe)]) continue;
-      const FrameFeatures& f = *graph.node(o.keyframe).features;
-      const size_t kp = static_cast<size_t>(o.keypoint);
       BundleAdjustmentObservation obs;
       obs.keyframe_id = o.keyframe;
       obs.point_id = id;
-      obs.pixel = Eigen::Vector2d(f.keypoints[kp].pt.x, f.keypoints[kp].pt.y);
-      obs.pixel_sigma = std::pow(options.octave_scale, f.keypoints[kp].octave);
-      if (f.has_depth[kp] && f.points_camera[kp].z() > 0) {
-        obs.inverse_depth = 1 / f.points_camera[kp].z();
-      }
+      obs.pixel = Eigen::Vector2d(o.u, o.v);
+      obs.pixel_sigma = std::pow(options.octave_scale, o.octave);
+      if (o.inverse_depth > 0) obs.inverse_depth = o.inverse_depth;
       observations.push_back(obs);
     }
   }

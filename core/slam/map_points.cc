@@ -12,6 +12,20 @@ Status MapPointsOptions::Validate() const {
   return OkStatus();
 }
 
+MapPointObservation ObservationOf(int keyframe, int keypoint, const FrameFeatures& features) {
+  const auto k = static_cast<size_t>(keypoint);
+  MapPointObservation o;
+  o.keyframe = keyframe;
+  o.keypoint = keypoint;
+  o.u = features.keypoints[k].pt.x;
+  o.v = features.keypoints[k].pt.y;
+  o.octave = features.keypoints[k].octave;
+  if (features.has_depth[k] && features.points_camera[k].z() > 0) {
+    o.inverse_depth = static_cast<float>(1 / features.points_camera[k].z());
+  }
+  return o;
+}
+
 int MapPoints::AddKeyframe(int64_t session_id, int keyframe, int index_in_session,
                            const FrameFeatures& features, const Eigen::Isometry3d& T_world_keyframe,
                            const std::vector<int64_t>& tracker_point_ids) {
@@ -46,7 +60,7 @@ int MapPoints::AddKeyframe(int64_t session_id, int keyframe, int index_in_sessio
       recent_[session_id].push_back(id);
       point = &created;
     }
-    point->observations.push_back({keyframe, static_cast<int>(k)});
+    point->observations.push_back(ObservationOf(keyframe, static_cast<int>(k), features));
     seen.push_back(point->id);
     ++num_observations_;
     ++added;
@@ -165,9 +179,10 @@ bool MapPoints::Fuse(int64_t keep, int64_t drop) {
   return true;
 }
 
-bool MapPoints::AddObservation(int64_t id, int keyframe, int keypoint) {
+bool MapPoints::AddObservation(int64_t id, const MapPointObservation& observation) {
+  const int keyframe = observation.keyframe;
   const auto it = points_.find(id);
-  if (it == points_.end() || keyframe < 0 || keypoint < 0) return false;
+  if (it == points_.end() || keyframe < 0 || observation.keypoint < 0) return false;
   std::vector<MapPointObservation>& observations = it->second.observations;
   if (std::any_of(observations.begin(), observations.end(),
                   [&](const MapPointObservation& o) { return o.keyframe == keyframe; })) {
@@ -177,7 +192,7 @@ bool MapPoints::AddObservation(int64_t id, int keyframe, int keypoint) {
   const auto at =
       std::upper_bound(observations.begin(), observations.end(), keyframe,
                        [](int k, const MapPointObservation& o) { return k < o.keyframe; });
-  observations.insert(at, {keyframe, keypoint});
+  observations.insert(at, observation);
   if (points_of_keyframe_.size() <= static_cast<size_t>(keyframe)) {
     points_of_keyframe_.resize(static_cast<size_t>(keyframe) + 1);
   }

@@ -35,7 +35,16 @@ struct MapPointsOptions {
 struct MapPointObservation {
   int keyframe = 0;  // graph node index
   int keypoint = 0;  // index into that keyframe's features
+  // What bundle adjustment measures, copied from the keyframe's features when the observation
+  // is made: BA then never needs the features, which need not be in memory
+  // (keyframe_feature_memory.h).
+  float u = 0, v = 0;        // the keypoint, pixels
+  float inverse_depth = 0;   // 1 / its depth, 0 when it has none
+  int octave = 0;            // its pyramid level (the pixel sigma's scale)
 };
+
+// Keypoint `keypoint` of `features` (valid index) observed by graph node `keyframe`.
+MapPointObservation ObservationOf(int keyframe, int keypoint, const FrameFeatures& features);
 
 struct MapPointState {
   int64_t id = 0;
@@ -91,11 +100,12 @@ class MapPoints {
   // tracker id names keep from now on. False (nothing changed) when either is unknown or they
   // are the same point.
   bool Fuse(int64_t keep, int64_t drop);
-  // Keypoint `keypoint` of `keyframe` observes point `id` (point fusion found it there). False
-  // (nothing changed) for an unknown point or one `keyframe` already observes.
-  bool AddObservation(int64_t id, int keyframe, int keypoint);
+  // The observation (ObservationOf) of point `id` (point fusion found it there). False
+  // (nothing changed) for an unknown point or one its keyframe already observes.
+  bool AddObservation(int64_t id, const MapPointObservation& observation);
   // A point read back from the store (a restarted server), created by session `session_id`,
-  // observed by `observations` (graph nodes, any order; one per keyframe is kept). It has no
+  // observed by `observations` (ObservationOf: graph nodes, any order; one per keyframe is
+  // kept). It has no
   // tracker id until a session's tracker is given it (TrackerIdFor) and is not culled as a
   // recent point. Returns its id; -1 (nothing added) without an observation.
   int64_t Restore(int64_t session_id, const Eigen::Vector3d& position_world,

@@ -141,7 +141,7 @@ PointFusionResult FusePointsIntoKeyframe(int keyframe, const std::vector<int>& n
 
     const auto there = point_of_keypoint.find(best);
     if (there == point_of_keypoint.end()) {
-      if (points.AddObservation(id, keyframe, best)) {
+      if (points.AddObservation(id, ObservationOf(keyframe, best, features))) {
         point_of_keypoint[best] = id;
         ++result.observations_added;
       }

@@ -114,6 +114,27 @@ StatusOr<std::unique_ptr<SlamBackend>> SlamBackend::Start(
   return backend;
 }
 
+namespace {
+
+// Reads released keyframe features back on the storage writer's thread: after everything
+// submitted before, so a keyframe whose write is still queued is found too.
+KeyframeFeatureMemory::Reader ReadFeaturesThrough(StorageWriter* writer) {
+  return [writer](const std::vector<std::pair<int64_t, int64_t>>& keys) {
+    std::vector<StatusOr<KeyframeRecord>> read;
+    const Status status = writer->RunSync([&](MapStore& store) {
+      read.clear();
+      for (const auto& [session_id, seq] : keys) {
+        read.push_back(store.GetKeyframeFeatures(session_id, seq));
+      }
+      return OkStatus();
+    });
+    if (!status.ok()) read.assign(keys.size(), StatusOr<KeyframeRecord>(status));
+    return read;
+  };
+}
+
+}  // namespace
+
 SlamBackend::SlamBackend(int64_t map_id, SlamBackendOptions options,
                          std::shared_ptr<const BowVocabulary> vocabulary, StorageWriter* writer,
                          StageConfig stage)
@@ -123,6 +144,7 @@ SlamBackend::SlamBackend(int64_t map_id, SlamBackendOptions options,
       vocabulary_(std::move(vocabulary)),
       writer_(writer),
       map_points_(options_.local_ba.points),
+      features_memory_(options_.features_memory_bytes, ReadFeaturesThrough(writer)),
       writes_(writer, "slam back end") {}
 
 void SlamBackend::OnStart() {
@@ -205,6 +227,11 @@ void SlamBackend::Restore(const MapSnapshot& snapshot) {
     graph_.AddEdge(edge);
   }
   RestoreMapPoints(snapshot.map_points);
+  features_memory_.Trim(graph_);  // every restored keyframe's features were read
+  {
+    std::lock_guard lock(mutex_);
+    stats_.features_released = features_memory_.released();
+  }
   // Each stored frame follows the latest kept keyframe at or before it, as it did when tracked
   // (or once its keyframe was culled).
   std::map<int64_t, std::pair<int64_t, Eigen::Isometry3d>> last_keyframe;  // by session
@@ -227,6 +254,7 @@ int SlamBackend::AddNode(GraphKeyframe keyframe) {
     if (words.ok()) bow = std::move(words).value();
   }
   const int index = graph_.Add(std::move(keyframe));
+  features_memory_.Added(index);
   // Add only fails for a malformed vector, which Transform never makes; such a keyframe would
   // just not be found by place recognition.
   if (bow && places_.Add(index, *bow).ok()) bow_[index] = std::move(*bow);
@@ -275,12 +303,45 @@ void SlamBackend::AddAnchor(int64_t session_id, const FrameAnchor& anchor) {
 
 Status SlamBackend::AddFrame(FrameAnchorEvent event) { return Submit(Event(std::move(event))); }
 
-void SlamBackend::CountHeldBytes() {
-  size_t features = 0;
-  for (int i = 0; i < graph_.size(); ++i) {
-    const GraphKeyframe& kf = graph_.node(i);
-    if (kf.features) features += kf.features->HeldBytes();
+std::vector<int> SlamBackend::WithFeatures(const std::vector<int>& nodes) {
+  const std::vector<std::pair<int, Status>> failed = features_memory_.Use(graph_, nodes);
+  for (const auto& [node, status] : failed) {
+    // Once per back end at warning level: a store that lost one keyframe's features likely
+    // lost more, and each is left out of the step that wanted it, not a reason to stop.
+    if (!features_unreadable_warned_) {
+      features_unreadable_warned_ = true;
+      LogWarning("{}: {}; such keyframes are left out where their features are needed", name(),
+                 status.ToString());
+    } else {
+      LogDebug("{}: {}", name(), status.ToString());
+    }
   }
+  std::vector<int> resident;
+  resident.reserve(nodes.size());
+  for (int n : nodes) {
+    if (n >= 0 && n < graph_.size() && graph_.node(n).features) resident.push_back(n);
+  }
+  return resident;
+}
+
+std::vector<int> SlamBackend::NewestObservers(const std::vector<int>& keyframes) const {
+  std::set<int> observers;
+  for (int k : keyframes) {
+    for (int64_t id : map_points_.PointsOf(k)) {
+      const MapPointState* point = map_points_.Find(id);
+      if (point != nullptr && !point->observations.empty()) {
+        observers.insert(point->observations.back().keyframe);
+      }
+    }
+  }
+  return {observers.begin(), observers.end()};
+}
+
+void SlamBackend::CountHeldBytes() {
+  const size_t features = features_memory_.HeldBytes(graph_);
+  stats_.features_released = features_memory_.released();
+  stats_.features_read_back = features_memory_.read_back();
+  stats_.features_unreadable = features_memory_.unreadable();
   size_t places = places_.HeldBytes();
   for (const auto& [node, words] : bow_) {
     places += sizeof(std::pair<const int, BowVector>) + 4 * sizeof(void*) +
@@ -396,9 +457,13 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   if (loop && options_.local_ba.enabled && options_.local_ba.fuse_loop_points) {
     FuseLoopPoints(*loop);
   }
+  features_memory_.Trim(graph_);
   SubmitPending();
   std::lock_guard lock(mutex_);
   ++stats_.keyframes;
+  stats_.features_released = features_memory_.released();
+  stats_.features_read_back = features_memory_.read_back();
+  stats_.features_unreadable = features_memory_.unreadable();
   stats_.map_points = map_points_.size();
   stats_.map_point_observations = map_points_.num_observations();
   if (loop) stats_.loops.push_back(*loop);
@@ -449,10 +514,16 @@ std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query) {
     }
   }
   for (const auto& [candidate, global] : candidates) {
+    std::vector<int> wanted{candidate};
+    for (int n : graph_.SessionNeighbours(candidate, options_.xi_neighbours)) {
+      if (!skip(n)) wanted.push_back(n);
+    }
+    const std::vector<int> resident = WithFeatures(wanted);
+    if (resident.empty() || resident.front() != candidate) continue;
     const GraphKeyframe& c = graph_.node(candidate);
     std::vector<const FrameFeatures*> neighbours;
-    for (int n : graph_.SessionNeighbours(candidate, options_.xi_neighbours)) {
-      if (!skip(n)) neighbours.push_back(graph_.node(n).features.get());
+    for (size_t i = 1; i < resident.size(); ++i) {
+      neighbours.push_back(graph_.node(resident[i]).features.get());
     }
     StatusOr<LoopVerification> verified =
         VerifyLoopCandidate(*q.features, *c.features, neighbours, *q.camera, options_.verifier);
@@ -622,8 +693,10 @@ std::vector<int> SlamBackend::Neighbourhood(int index) const {
 
 void SlamBackend::FusePoints(int index) {
   if (!options_.point_fusion.enabled) return;
-  const PointFusionResult result = FusePointsIntoKeyframe(index, Neighbourhood(index), graph_,
-                                                          map_points_, options_.point_fusion);
+  const std::vector<int> around = Neighbourhood(index);
+  WithFeatures(NewestObservers(around));  // the points' descriptors
+  const PointFusionResult result =
+      FusePointsIntoKeyframe(index, around, graph_, map_points_, options_.point_fusion);
   std::lock_guard lock(mutex_);
   stats_.map_point_observations_joined += static_cast<uint64_t>(result.observations_added);
   stats_.map_points_fused_by_projection += static_cast<uint64_t>(result.points_fused);
@@ -640,6 +713,7 @@ void SlamBackend::PublishTrackingMap(int index) {
     if (registered() == nullptr || options_.tracking_map_max_points == 0) return;
   }
   const std::vector<int> keyframes = Neighbourhood(index);
+  WithFeatures(NewestObservers(keyframes));  // the points' descriptors
   auto update = std::make_shared<LocalMapUpdate>();
   std::set<int64_t> taken;
   for (int k : keyframes) {
@@ -649,6 +723,7 @@ void SlamBackend::PublishTrackingMap(int index) {
       const MapPointState* point = map_points_.Find(id);
       // The descriptor and scale of its newest observation.
       const MapPointObservation& o = point->observations.back();
+      if (!graph_.node(o.keyframe).features) continue;  // unreadable (WithFeatures logged it)
       const FrameFeatures& f = *graph_.node(o.keyframe).features;
       const int64_t tracker_id = map_points_.TrackerIdFor(newest.session_id, id);
       update->ids.push_back(tracker_id);
@@ -758,7 +833,7 @@ void SlamBackend::RestoreMapPoints(const std::vector<MapPointRecord>& records) {
           static_cast<size_t>(o.keypoint) >= graph_.node(*keyframe).features->size()) {
         continue;
       }
-      observations.push_back({*keyframe, o.keypoint});
+      observations.push_back(ObservationOf(*keyframe, o.keypoint, *graph_.node(*keyframe).features));
     }
     if (map_points_.Restore(record.session_id, record.position_world, observations) >= 0) {
       ++restored;

@@ -30,6 +30,7 @@
 #include "core/sensor/frame_features.h"
 #include "core/slam/bow_vocabulary.h"
 #include "core/slam/keyframe_culling.h"
+#include "core/slam/keyframe_feature_memory.h"
 #include "core/slam/keyframe_graph.h"
 #include "core/slam/local_bundle_adjustment.h"
 #include "core/slam/loop_verifier.h"
@@ -63,6 +64,10 @@ struct SlamBackendOptions {
   double tracking_map_near_angle_deg = 45;
   int tracking_map_max_points = 4000;
   size_t queue_capacity = 512;  // events (keyframes and frame anchors) waiting for the worker
+  // Keyframe features kept in memory (keyframe_feature_memory.h): beyond this the least recently
+  // used are released and read back from the store when needed. 32 MiB holds ~400 keyframes of
+  // 1000 ORB features; 0 keeps every keyframe's.
+  size_t features_memory_bytes = size_t{32} << 20;
   // Keyframes this close in a session's order are its odometry neighbours, never loop
   // candidates (they are matched by tracking already).
   int exclude_recent = 8;
@@ -193,6 +198,11 @@ struct SlamBackendStats {
   // (descriptors, keypoints, 3D points; culled keyframes none), the place database, the map
   // points with their observations. What grows with a map's keyframes.
   size_t features_bytes = 0;
+  // Keyframe features released beyond features_memory_bytes, read back from the store, and
+  // not readable there when needed (the keyframe was then left out of that step).
+  uint64_t features_released = 0;
+  uint64_t features_read_back = 0;
+  uint64_t features_unreadable = 0;
   size_t place_index_bytes = 0;
   size_t map_point_bytes = 0;
   size_t queue_high_water = 0;
@@ -310,6 +320,12 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
 
   // Fills stats_'s held-bytes figures (the caller holds mutex_; O(keyframes)).
   void CountHeldBytes();
+  // Makes the features of `nodes` resident (features_memory_); returns those that are (the
+  // others are logged and left out).
+  std::vector<int> WithFeatures(const std::vector<int>& nodes);
+  // The keyframes whose features give the descriptors of the points `keyframes` observe (each
+  // point's newest observation).
+  std::vector<int> NewestObservers(const std::vector<int>& keyframes) const;
 
   const int64_t map_id_;
   const SlamBackendOptions options_;
@@ -327,10 +343,12 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   // Positions in anchors_[session] of the frames anchored to each (session, keyframe seq).
   std::map<std::pair<int64_t, int64_t>, std::vector<size_t>> anchors_of_keyframe_;
   MapPoints map_points_;
+  KeyframeFeatureMemory features_memory_;
   std::atomic<int> queued_keyframes_{0};  // added, not yet handled
   bool keyframes_since_final_ba_ = false;
   bool map_points_changed_ = false;  // since they were last written to the store
   int deferred_loops_ = 0;           // consistent loops added since the last optimisation
+  bool features_unreadable_warned_ = false;
 
   PendingWrites writes_;      // the worker's batches, and the errors Drain reports
   mutable std::mutex mutex_;  // sessions_, stats_

@@ -63,6 +63,7 @@ class SqliteMapStore final : public MapStore {
   StatusOr<std::vector<KeyframeRecord>> ListKeyframes(int64_t session_id,
                                                       bool with_images) override;
   StatusOr<std::vector<KeyframeRecord>> ListKeyframeFeatures(int64_t session_id) override;
+  StatusOr<KeyframeRecord> GetKeyframeFeatures(int64_t session_id, int64_t seq) override;
   StatusOr<std::vector<LinkRecord>> ListLinks(int64_t map_id) override;
   // Ordered by point id. NOT_FOUND for an unknown map; DATA_LOSS naming the point for an
   // observations blob that does not decode.

@@ -119,6 +119,24 @@ StatusOr<std::vector<KeyframeRecord>> SqliteMapStore::ListKeyframeFeatures(int64
   return keyframes;
 }
 
+StatusOr<KeyframeRecord> SqliteMapStore::GetKeyframeFeatures(int64_t session_id, int64_t seq) {
+  SEMMAP_ASSIGN_OR_RETURN(
+      StatementLease stmt,
+      db_->Prepare("SELECT id, session_id, seq, stamp_ns, tx, ty, tz, qx, qy, qz, qw,"
+                   " colour_format, depth_format, depth_scale, culled"
+                   " FROM keyframes WHERE session_id = ?1 AND seq = ?2"));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(1, session_id));
+  SEMMAP_RETURN_IF_ERROR(stmt->BindInt64(2, seq));
+  SEMMAP_ASSIGN_OR_RETURN(bool row, stmt->Step());
+  if (!row) {
+    return NotFoundError("session id " + std::to_string(session_id) + " has no keyframe seq " +
+                         std::to_string(seq));
+  }
+  KeyframeRecord kf = KeyframeFromRow(*stmt, /*with_images=*/false);
+  SEMMAP_RETURN_IF_ERROR(ReadKeyframeFeatures(kf));
+  return kf;
+}
+
 StatusOr<std::vector<LinkRecord>> SqliteMapStore::ListLinks(int64_t map_id) {
   SEMMAP_RETURN_IF_ERROR(MapName(map_id).status());
   SEMMAP_ASSIGN_OR_RETURN(

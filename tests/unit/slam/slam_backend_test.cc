@@ -377,6 +377,90 @@ TEST_F(SlamBackendTest, MapPointsPersistAndReachALaterSessionsTracker) {
   EXPECT_GT(foreign, 100);
 }
 
+// Features beyond the memory budget are released and read back from the store where loop
+// verification and the trackers' local maps need them: the same loops and poses as with every
+// keyframe's features in memory, and a restored map's old keyframes still close loops.
+TEST_F(SlamBackendTest, FeaturesBeyondTheBudgetAreReadBackWhereNeeded) {
+  StatusOr<BowVocabulary> vocabulary =
+      BowVocabulary::Load(std::string(SEMMAP_SOURCE_DIR) + "/models/orb_vocab.bin");
+  ASSERT_TRUE(vocabulary.ok()) << vocabulary.status().ToString();
+  auto words = std::make_shared<const BowVocabulary>(std::move(vocabulary).value());
+  const std::vector<Keyframe> lap = RenderKeyframes(kLapFrames + 1);
+  const auto run = [&](size_t budget) {
+    SlamBackendOptions options = UnboundedSolves();
+    options.local_radius_m = 1.0;
+    options.features_memory_bytes = budget;
+    std::unique_ptr<SlamBackend> backend = Start(options, words);
+    Stream(*backend, lap, std::nullopt, /*drift=*/true, /*point_ids=*/true, /*paced=*/true);
+    EXPECT_TRUE(backend->Drain().ok());
+    return backend->stats();
+  };
+  const SlamBackendStats all = run(0);
+  const int64_t first_session = session_.id;
+  auto stored_all = reader_->ListKeyframes(session_.id, false);
+  ASSERT_TRUE(stored_all.ok());
+  StartNewSession("budgeted");  // the same lap again, in a session of its own
+  const SlamBackendStats few = run(1);  // every keyframe's features released after it
+  auto stored_few = reader_->ListKeyframes(session_.id, false);
+  ASSERT_TRUE(stored_few.ok());
+  std::printf(
+      "lap of %zu keyframes: all in memory %zu loops, %.1f kB held; budget 1 byte: %zu loops, "
+      "%.1f kB held, %lu released, %lu read back\n",
+      lap.size(), static_cast<size_t>(all.loops_accepted), all.features_bytes / 1e3,
+      static_cast<size_t>(few.loops_accepted), few.features_bytes / 1e3,
+      static_cast<unsigned long>(few.features_released),
+      static_cast<unsigned long>(few.features_read_back));
+  EXPECT_EQ(all.features_released, 0u);
+  EXPECT_GE(all.loops_accepted, 1u);
+  EXPECT_EQ(few.loops_accepted, all.loops_accepted);
+  EXPECT_EQ(few.map_points, all.map_points);
+  EXPECT_GE(few.features_released, lap.size() - 1);
+  EXPECT_GT(few.features_read_back, 0u);
+  EXPECT_EQ(few.features_unreadable, 0u);
+  EXPECT_EQ(few.features_bytes, 0u);
+  ASSERT_EQ(stored_few->size(), stored_all->size());
+  for (size_t i = 0; i < stored_all->size(); ++i) {
+    // Read-back 3D points are floats: verification may differ below a micrometre.
+    EXPECT_LT(((*stored_few)[i].T_world_camera.translation() -
+               (*stored_all)[i].T_world_camera.translation())
+                  .norm(),
+              1e-4)
+        << "keyframe " << i;
+  }
+
+  // After a restart, with a budget of about two keyframes: the restored keyframes' features go
+  // once the map is loaded, and come back for the loop a later session closes with them and
+  // for the stored points its tracker is sent. (The budgeted session only: the map points
+  // stored are its back end's.)
+  StatusOr<MapSnapshot> snapshot = MapSnapshot{};
+  ASSERT_TRUE(writer_
+                  ->RunSync([&](MapStore& store) {
+                    snapshot = ReadMapSnapshot(store, session_.map_id, {first_session});
+                    return snapshot.status();
+                  })
+                  .ok())
+      << snapshot.status().ToString();
+  StartNewSession("after restart");
+  SlamBackendOptions options = UnboundedSolves();
+  options.features_memory_bytes = 2 * lap.front().features->HeldBytes();
+  std::unique_ptr<SlamBackend> later = Start(options, words, &*snapshot);
+  EXPECT_GE(later->stats().features_released, lap.size() - 2);
+  const std::vector<Keyframe> again(lap.begin() + 10, lap.begin() + 20);
+  Stream(*later, again, Eigen::Isometry3d::Identity(), /*drift=*/false, /*point_ids=*/true,
+         /*paced=*/true);
+  ASSERT_TRUE(later->Drain().ok());
+  const SlamBackendStats stats = later->stats();
+  EXPECT_GE(stats.loops_accepted, 1u);
+  EXPECT_GT(stats.features_read_back, 0u);
+  EXPECT_EQ(stats.features_unreadable, 0u);
+  EXPECT_LE(stats.features_bytes, options.features_memory_bytes);
+  ASSERT_NE(last_map_update_, nullptr);
+  const auto foreign =
+      std::count_if(last_map_update_->ids.begin(), last_map_update_->ids.end(),
+                    [](int64_t id) { return id >= MapPoints::kForeignTrackerIdBase; });
+  EXPECT_GT(foreign, 100);
+}
+
 // The server's way: the back end reads the stored map itself, on its own thread through a read
 // connection (the storage writer is not involved), ahead of the new session's events, leaving
 // out the live session's keyframes (they arrive as events).

@@ -715,6 +715,17 @@ TEST_F(SqliteMapStoreTest, KeyframeFeaturesRoundTripAndAreOptional) {
   EXPECT_EQ((*features_only)[0].features, with.features);
   EXPECT_TRUE((*features_only)[0].colour.bytes.empty());
   EXPECT_TRUE((*features_only)[1].features.empty());
+  auto one = store_->GetKeyframeFeatures(s.id, 0);
+  ASSERT_OK(one.status());
+  EXPECT_EQ(one->seq, 0);
+  EXPECT_EQ(one->features_format, "semmap-features-v1");
+  EXPECT_EQ(one->features, with.features);
+  EXPECT_TRUE(one->colour.bytes.empty());
+  auto one_without = store_->GetKeyframeFeatures(s.id, 1);
+  ASSERT_OK(one_without.status());
+  EXPECT_TRUE(one_without->features.empty());
+  EXPECT_EQ(store_->GetKeyframeFeatures(s.id, 2).status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(store_->GetKeyframeFeatures(s.id + 1, 0).status().code(), StatusCode::kNotFound);
 }
 
 TEST_F(SqliteMapStoreTest, FeaturesWithoutFormatAreRejected) {
@@ -739,6 +750,7 @@ TEST_F(SqliteMapStoreTest, CorruptedFeaturesAreDataLoss) {
       std::to_string(id)));
   auto read = store_->GetKeyframe(id);
   EXPECT_EQ(read.status().code(), StatusCode::kDataLoss) << read.status().ToString();
+  EXPECT_EQ(store_->GetKeyframeFeatures(s.id, 0).status().code(), StatusCode::kDataLoss);
 }
 
 // --- map points ---

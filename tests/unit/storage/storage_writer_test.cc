@@ -71,6 +71,9 @@ class RecordingStore final : public MapStore {
   StatusOr<std::vector<KeyframeRecord>> ListKeyframeFeatures(int64_t id) override {
     return inner_->ListKeyframeFeatures(id);
   }
+  StatusOr<KeyframeRecord> GetKeyframeFeatures(int64_t session_id, int64_t seq) override {
+    return inner_->GetKeyframeFeatures(session_id, seq);
+  }
   StatusOr<std::vector<LinkRecord>> ListLinks(int64_t id) override { return inner_->ListLinks(id); }
   StatusOr<std::vector<MapPointRecord>> ListMapPoints(int64_t id) override {
     return inner_->ListMapPoints(id);
