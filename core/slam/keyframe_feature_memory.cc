@@ -10,7 +10,8 @@ namespace semmap {
 
 void KeyframeFeatureMemory::Touch(int node) {
   if (node < 0) return;
-  if (last_use_.size() <= static_cast<size_t>(node)) last_use_.resize(static_cast<size_t>(node) + 1);
+  if (last_use_.size() <= static_cast<size_t>(node))
+    last_use_.resize(static_cast<size_t>(node) + 1);
   last_use_[static_cast<size_t>(node)] = ++clock_;
 }
 
@@ -66,7 +67,8 @@ void KeyframeFeatureMemory::Trim(KeyframeGraph& graph) {
     const GraphKeyframe& k = graph.node(n);
     if (k.culled || !k.features) continue;
     held += k.features->HeldBytes();
-    const uint64_t used = static_cast<size_t>(n) < last_use_.size() ? last_use_[static_cast<size_t>(n)] : 0;
+    const uint64_t used =
+        static_cast<size_t>(n) < last_use_.size() ? last_use_[static_cast<size_t>(n)] : 0;
     resident.emplace_back(used, n);
   }
   if (held <= budget_bytes_) return;

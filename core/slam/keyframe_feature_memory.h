@@ -18,9 +18,9 @@
 #include <utility>
 #include <vector>
 
+#include "common/map_types.h"
 #include "common/status.h"
 #include "core/slam/keyframe_graph.h"
-#include "common/map_types.h"
 
 namespace semmap {
 

@@ -38,9 +38,9 @@ struct MapPointObservation {
   // What bundle adjustment measures, copied from the keyframe's features when the observation
   // is made: BA then never needs the features, which need not be in memory
   // (keyframe_feature_memory.h).
-  float u = 0, v = 0;        // the keypoint, pixels
-  float inverse_depth = 0;   // 1 / its depth, 0 when it has none
-  int octave = 0;            // its pyramid level (the pixel sigma's scale)
+  float u = 0, v = 0;       // the keypoint, pixels
+  float inverse_depth = 0;  // 1 / its depth, 0 when it has none
+  int octave = 0;           // its pyramid level (the pixel sigma's scale)
 };
 
 // Keypoint `keypoint` of `features` (valid index) observed by graph node `keyframe`.

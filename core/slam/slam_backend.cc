@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -257,8 +258,27 @@ int SlamBackend::AddNode(GraphKeyframe keyframe) {
   features_memory_.Added(index);
   // Add only fails for a malformed vector, which Transform never makes; such a keyframe would
   // just not be found by place recognition.
-  if (bow && places_.Add(index, *bow).ok()) bow_[index] = std::move(*bow);
+  if (bow && places_.Add(index, *bow).ok()) KeepWords(index, std::move(*bow));
   return index;
+}
+
+void SlamBackend::KeepWords(int node, BowVector words) {
+  bow_[node] = std::move(words);
+  std::deque<int>& kept = words_kept_[graph_.node(node).session_id];
+  kept.push_back(node);
+  while (kept.size() > kWordsKeptPerSession) {
+    bow_.erase(kept.front());
+    kept.pop_front();
+  }
+}
+
+const BowVector* SlamBackend::WordsOf(int node) {
+  if (const auto it = bow_.find(node); it != bow_.end()) return &it->second;
+  if (!vocabulary_ || !places_.Contains(node) || WithFeatures({node}).empty()) return nullptr;
+  StatusOr<BowVector> words = vocabulary_->Transform(graph_.node(node).features->descriptors);
+  if (!words.ok()) return nullptr;
+  KeepWords(node, std::move(words).value());
+  return &bow_.at(node);
 }
 
 SlamBackend::~SlamBackend() { Stop(); }  // the worker drains what is queued first
@@ -494,9 +514,9 @@ std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query) {
     double reference = 0;  // how similar the query is to what it certainly overlaps with
     if (q.index_in_session > 0) {
       for (int n : graph_.SessionNeighbours(query, 1)) {
-        const auto it = bow_.find(n);
-        if (it != bow_.end())
-          reference = std::max(reference, BowVocabulary::Score(*bow, it->second));
+        if (const BowVector* words = WordsOf(n)) {
+          reference = std::max(reference, BowVocabulary::Score(*bow, *words));
+        }
       }
     }
     const double min_score =
@@ -833,7 +853,8 @@ void SlamBackend::RestoreMapPoints(const std::vector<MapPointRecord>& records) {
           static_cast<size_t>(o.keypoint) >= graph_.node(*keyframe).features->size()) {
         continue;
       }
-      observations.push_back(ObservationOf(*keyframe, o.keypoint, *graph_.node(*keyframe).features));
+      observations.push_back(
+          ObservationOf(*keyframe, o.keypoint, *graph_.node(*keyframe).features));
     }
     if (map_points_.Restore(record.session_id, record.position_world, observations) >= 0) {
       ++restored;

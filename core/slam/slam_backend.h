@@ -11,6 +11,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <future>
 #include <map>
@@ -282,6 +283,12 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   void Restore(const MapSnapshot& snapshot);
   // Graph node and place-database entry of a keyframe (no loop search).
   int AddNode(GraphKeyframe keyframe);
+  // Keeps a node's place-recognition words (bow_) among its session's newest few; older ones
+  // are dropped (the place database has them indexed).
+  void KeepWords(int node, BowVector words);
+  // A node's words: kept, or made again from its features; null when it has none (no
+  // vocabulary, not in the place database, features unreadable).
+  const BowVector* WordsOf(int node);
   void HandleKeyframe(KeyframeEvent& event);
   void HandleFrame(const FrameAnchorEvent& event);
   // Loop candidates for node `query`, verified; the first accepted one becomes a loop edge.
@@ -337,7 +344,11 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   // Worker-thread state.
   KeyframeGraph graph_;
   PlaceDatabase places_;
-  std::map<int, BowVector> bow_;  // by node index (for the score against the previous one)
+  // Words by node index, for the score of a query against its session's previous keyframe:
+  // only each session's newest kWordsKeptPerSession keyframes keep theirs (~11 kB each).
+  static constexpr size_t kWordsKeptPerSession = 3;
+  std::map<int, BowVector> bow_;
+  std::map<int64_t, std::deque<int>> words_kept_;  // by session, oldest first
   WriteBatch pending_;
   std::map<int64_t, std::vector<FrameAnchor>> anchors_;  // by session, in seq order
   // Positions in anchors_[session] of the frames anchored to each (session, keyframe seq).

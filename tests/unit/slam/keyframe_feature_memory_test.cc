@@ -103,7 +103,7 @@ TEST(KeyframeFeatureMemoryTest, ReadsReleasedFeaturesBackInOneCall) {
 
 TEST(KeyframeFeatureMemoryTest, UnreadableKeyframesAreReportedNotResident) {
   Fixture f(3);
-  f.stored.erase(1);       // never stored (a failed write)
+  f.stored.erase(1);        // never stored (a failed write)
   f.stored[2] = "damaged";  // does not decode
   KeyframeFeatureMemory memory(1, f.Reader());
   for (int n = 0; n < 3; ++n) memory.Added(n);
@@ -132,7 +132,7 @@ TEST(KeyframeFeatureMemoryTest, ZeroBudgetKeepsEverythingAndCulledKeyframesAreLe
   f.graph.Cull(1);
   KeyframeFeatureMemory memory(1, nullptr);  // no store: reading back fails
   memory.Trim(f.graph);
-  EXPECT_EQ(memory.released(), 2u);  // the two kept ones
+  EXPECT_EQ(memory.released(), 2u);               // the two kept ones
   EXPECT_TRUE(memory.Use(f.graph, {1}).empty());  // culled: nothing to give
   const auto failed = memory.Use(f.graph, {0});
   ASSERT_EQ(failed.size(), 1u);

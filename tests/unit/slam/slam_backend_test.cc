@@ -399,7 +399,7 @@ TEST_F(SlamBackendTest, FeaturesBeyondTheBudgetAreReadBackWhereNeeded) {
   const int64_t first_session = session_.id;
   auto stored_all = reader_->ListKeyframes(session_.id, false);
   ASSERT_TRUE(stored_all.ok());
-  StartNewSession("budgeted");  // the same lap again, in a session of its own
+  StartNewSession("budgeted");          // the same lap again, in a session of its own
   const SlamBackendStats few = run(1);  // every keyframe's features released after it
   auto stored_few = reader_->ListKeyframes(session_.id, false);
   ASSERT_TRUE(stored_few.ok());
