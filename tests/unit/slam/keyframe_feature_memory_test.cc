@@ -60,6 +60,11 @@ struct Fixture {
       return out;
     };
   }
+  // Every keyframe added to `memory` in node order, then trimmed.
+  void AddAllAndTrim(KeyframeFeatureMemory& memory) {
+    for (int n = 0; n < graph.size(); ++n) memory.Added(n);
+    memory.Trim(graph);
+  }
   size_t OneKeyframe() const { return graph.node(0).features->HeldBytes(); }
   bool Resident(int n) const { return graph.node(n).features != nullptr; }
 
@@ -87,8 +92,7 @@ TEST(KeyframeFeatureMemoryTest, ReleasesTheLeastRecentlyUsedBeyondTheBudget) {
 TEST(KeyframeFeatureMemoryTest, ReadsReleasedFeaturesBackInOneCall) {
   Fixture f(4);
   KeyframeFeatureMemory memory(1, f.Reader());
-  for (int n = 0; n < 4; ++n) memory.Added(n);
-  memory.Trim(f.graph);
+  f.AddAllAndTrim(memory);
   for (int n = 0; n < 4; ++n) EXPECT_FALSE(f.Resident(n));
   EXPECT_TRUE(memory.Use(f.graph, {2, 0, 2}).empty());
   EXPECT_EQ(f.calls, 1);
@@ -106,8 +110,7 @@ TEST(KeyframeFeatureMemoryTest, UnreadableKeyframesAreReportedNotResident) {
   f.stored.erase(1);        // never stored (a failed write)
   f.stored[2] = "damaged";  // does not decode
   KeyframeFeatureMemory memory(1, f.Reader());
-  for (int n = 0; n < 3; ++n) memory.Added(n);
-  memory.Trim(f.graph);
+  f.AddAllAndTrim(memory);
   const std::vector<std::pair<int, Status>> failed = memory.Use(f.graph, {0, 1, 2});
   ASSERT_EQ(failed.size(), 2u);
   EXPECT_EQ(failed[0].first, 1);
@@ -125,8 +128,7 @@ TEST(KeyframeFeatureMemoryTest, UnreadableKeyframesAreReportedNotResident) {
 TEST(KeyframeFeatureMemoryTest, ZeroBudgetKeepsEverythingAndCulledKeyframesAreLeftAlone) {
   Fixture f(3);
   KeyframeFeatureMemory unlimited(0, f.Reader());
-  for (int n = 0; n < 3; ++n) unlimited.Added(n);
-  unlimited.Trim(f.graph);
+  f.AddAllAndTrim(unlimited);
   for (int n = 0; n < 3; ++n) EXPECT_TRUE(f.Resident(n));
 
   f.graph.Cull(1);

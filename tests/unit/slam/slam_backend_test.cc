@@ -220,6 +220,17 @@ class SlamBackendTest : public ::testing::Test {
     return std::move(backend).value();
   }
 
+  // The committed vocabulary; null (a failure recorded) when it does not load.
+  static std::shared_ptr<const BowVocabulary> Words() {
+    StatusOr<BowVocabulary> vocabulary =
+        BowVocabulary::Load(std::string(SEMMAP_SOURCE_DIR) + "/models/orb_vocab.bin");
+    if (!vocabulary.ok()) {
+      ADD_FAILURE() << vocabulary.status().ToString();
+      return nullptr;
+    }
+    return std::make_shared<const BowVocabulary>(std::move(vocabulary).value());
+  }
+
   double MaxError(const std::vector<Keyframe>& kfs, const std::vector<Eigen::Isometry3d>& T) {
     double worst = 0;
     for (size_t i = 0; i < kfs.size(); ++i) {
@@ -285,10 +296,8 @@ TEST_F(SlamBackendTest, DriftingLapIsClosedAndStoredPosesAreCorrected) {
 // finds the first session's keyframes, and the closed loop brings the new session into the
 // map's frame.
 TEST_F(SlamBackendTest, SessionAfterRestartJoinsTheStoredMap) {
-  StatusOr<BowVocabulary> vocabulary =
-      BowVocabulary::Load(std::string(SEMMAP_SOURCE_DIR) + "/models/orb_vocab.bin");
-  ASSERT_TRUE(vocabulary.ok()) << vocabulary.status().ToString();
-  auto words = std::make_shared<const BowVocabulary>(std::move(vocabulary).value());
+  const std::shared_ptr<const BowVocabulary> words = Words();
+  ASSERT_NE(words, nullptr);
   const std::vector<Keyframe> lap = RenderKeyframes(kLapFrames + 1);
   {
     std::unique_ptr<SlamBackend> first = Start({}, words);
@@ -335,10 +344,8 @@ TEST_F(SlamBackendTest, SessionAfterRestartJoinsTheStoredMap) {
 // them with the keyframes, and once a later session's loop joins it to the map, that session's
 // tracker is sent them (under foreign ids) to track against.
 TEST_F(SlamBackendTest, MapPointsPersistAndReachALaterSessionsTracker) {
-  StatusOr<BowVocabulary> vocabulary =
-      BowVocabulary::Load(std::string(SEMMAP_SOURCE_DIR) + "/models/orb_vocab.bin");
-  ASSERT_TRUE(vocabulary.ok()) << vocabulary.status().ToString();
-  auto words = std::make_shared<const BowVocabulary>(std::move(vocabulary).value());
+  const std::shared_ptr<const BowVocabulary> words = Words();
+  ASSERT_NE(words, nullptr);
   const std::vector<Keyframe> lap = RenderKeyframes(kLapFrames + 1);
   size_t first_points = 0;
   {
@@ -381,10 +388,8 @@ TEST_F(SlamBackendTest, MapPointsPersistAndReachALaterSessionsTracker) {
 // verification and the trackers' local maps need them: the same loops and poses as with every
 // keyframe's features in memory, and a restored map's old keyframes still close loops.
 TEST_F(SlamBackendTest, FeaturesBeyondTheBudgetAreReadBackWhereNeeded) {
-  StatusOr<BowVocabulary> vocabulary =
-      BowVocabulary::Load(std::string(SEMMAP_SOURCE_DIR) + "/models/orb_vocab.bin");
-  ASSERT_TRUE(vocabulary.ok()) << vocabulary.status().ToString();
-  auto words = std::make_shared<const BowVocabulary>(std::move(vocabulary).value());
+  const std::shared_ptr<const BowVocabulary> words = Words();
+  ASSERT_NE(words, nullptr);
   const std::vector<Keyframe> lap = RenderKeyframes(kLapFrames + 1);
   const auto run = [&](size_t budget) {
     SlamBackendOptions options = UnboundedSolves();
