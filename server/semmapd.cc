@@ -116,7 +116,13 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   SEMMAP_ASSIGN_OR_RETURN(ba.enabled, args.GetOnOff("local-ba", ba.enabled));
   SEMMAP_ASSIGN_OR_RETURN(ba.final_ba, args.GetOnOff("final-ba", ba.final_ba));
   semmap::PointFusionOptions& fusion = options->ingest.slam.point_fusion;
-  SEMMAP_ASSIGN_OR_RETURN(fusion.enabled, args.GetOnOff("point-fusion", fusion.enabled));
+  const std::string fusion_mode =
+      args.Get("point-fusion", !fusion.enabled ? "off" : fusion.merge_established ? "all" : "on");
+  if (fusion_mode != "off" && fusion_mode != "on" && fusion_mode != "all") {
+    return semmap::InvalidArgumentError("--point-fusion must be off, on or all");
+  }
+  fusion.enabled = fusion_mode != "off";
+  fusion.merge_established = fusion_mode == "all";
   size_t& features_budget = options->ingest.slam.features_memory_bytes;
   SEMMAP_ASSIGN_OR_RETURN(
       long long features_mb,
@@ -248,11 +254,11 @@ int main(int argc, char** argv) {
   args.AddFlag("final-ba", "on|off",
                "when an RGBD session ends, bundle-adjust every keyframe and map point of its map "
                "(needs --local-ba on; default on)");
-  args.AddFlag("point-fusion", "on|off",
-               "search the map points of the keyframes around each new RGBD keyframe in it and "
-               "join or fuse them (a revisited place shares its points and keyframe culling "
-               "can drop the old keyframes; measured, it costs ~0.5 mm ATE; needs --local-ba "
-               "on; default off)");
+  args.AddFlag("point-fusion", "off|on|all",
+               "search the map points of the keyframes around each new RGBD keyframe in it: "
+               "keypoints join a neighbour's point, a fresh duplicate (seen by one keyframe) "
+               "is merged; all: also merge two established points (measured, that costs "
+               "ATE); needs --local-ba on; default on)");
   args.AddFlag("slam-features-mb", "MB",
                "keyframe features each open map's SLAM back end keeps in memory; beyond it the "
                "least recently used are read back from the store when loop closure or a "

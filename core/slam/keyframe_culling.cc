@@ -1,6 +1,5 @@
 #include "core/slam/keyframe_culling.h"
 
-#include <algorithm>
 #include <cmath>
 
 namespace semmap {
@@ -34,14 +33,9 @@ std::vector<int> CullRedundantKeyframes(int newest, KeyframeGraph& graph, MapPoi
                                         const KeyframeCullingOptions& options) {
   std::vector<int> culled;
   if (!options.enabled) return culled;
-  const auto has_loop = [&](int k) {
-    return std::any_of(graph.edges().begin(), graph.edges().end(), [&](const GraphEdge& e) {
-      return e.kind == PoseGraphEdgeKind::kLoop && (e.from == k || e.to == k);
-    });
-  };
   for (const auto& [k, shared] : points.Covisible(newest)) {
     const GraphKeyframe& node = graph.node(k);
-    if (k == newest || node.culled || node.index_in_session == 0 || has_loop(k)) continue;
+    if (k == newest || node.culled || node.index_in_session == 0) continue;
     if (!IsRedundantKeyframe(k, points, options)) continue;
     points.RemoveKeyframe(k);
     graph.Cull(k);

@@ -28,8 +28,10 @@ bool IsRedundantKeyframe(int k, const MapPoints& points, const KeyframeCullingOp
 
 // Checks the keyframes covisible with `newest` (the keyframe just added and adjusted), one at
 // a time, and culls the redundant ones: graph.Cull, and their observations leave the map
-// points. Never culls `newest`, a session's first keyframe, a keyframe with a loop edge, or
-// one already culled. Returns the culled graph indices.
+// points. Never culls `newest`, a session's first keyframe or one already culled. A keyframe
+// with a loop edge may go (unlike ORB-SLAM2's): it stays a pose node, so the pose graph still
+// closes the loop through it, and on a revisited place nearly every keyframe has one, which
+// kept the revisits' keyframes from ever being culled. Returns the culled graph indices.
 std::vector<int> CullRedundantKeyframes(int newest, KeyframeGraph& graph, MapPoints& points,
                                         const KeyframeCullingOptions& options);
 

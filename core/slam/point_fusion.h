@@ -16,10 +16,11 @@
 namespace semmap {
 
 struct PointFusionOptions {
-  // Off by default: measured, fusing duplicates cost ATE on every sequence with ground truth
-  // here (see docs/architecture.md); on, a revisited place shares its points and keyframe
-  // culling finds the old keyframes redundant.
-  bool enabled = false;
+  // On by default since the merges of two established points were left out (below): measured
+  // (docs/architecture.md), the same or better ATE on every sequence with exact ground truth
+  // here, and a revisited place shares its points, so keyframe culling finds the revisits'
+  // keyframes redundant.
+  bool enabled = true;
   // Keypoints within this many pixels (times the scale factor to the point's pyramid level) of
   // a point's projection are candidates.
   double search_radius_px = 3.0;
@@ -33,6 +34,11 @@ struct PointFusionOptions {
   double max_reprojection_chi2 = 5.991;
   double max_chi2_with_depth = 7.815;
   double inverse_depth_sigma = 3e-3;  // 1/m; BundleAdjustmentOptions::inverse_depth_sigma
+  // Off: a duplicate is merged only while one of the two is fresh (one observation, i.e. only
+  // the keyframe that created it sees it). Measured, merging two established points (each seen
+  // by two or more keyframes, each pulled into place by its own bundle adjustments) is where
+  // fusion's ATE cost came from (docs/architecture.md); both then stay and BA weighs them.
+  bool merge_established = false;
 
   Status Validate() const;  // INVALID_ARGUMENT naming the field
 };

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
 
 namespace semmap {
@@ -61,7 +62,7 @@ TEST(KeyframeCullingTest, RedundantWhenNinetyPercentOfItsPointsHaveThreeOtherObs
   EXPECT_FALSE(IsRedundantKeyframe(42, scene.points, {}));  // no points
 }
 
-TEST(KeyframeCullingTest, CullsCovisibleKeyframesOneAtATimeKeepingFirstNewestAndLoops) {
+TEST(KeyframeCullingTest, CullsCovisibleKeyframesOneAtATimeKeepingFirstAndNewest) {
   // Six keyframes over the same ten points.
   CullingScene scene(std::vector<std::vector<int64_t>>(6, PointIds(0, 10)));
   GraphEdge loop;
@@ -71,18 +72,23 @@ TEST(KeyframeCullingTest, CullsCovisibleKeyframesOneAtATimeKeepingFirstNewestAnd
   scene.graph.AddEdge(loop);
   const std::vector<int> culled =
       CullRedundantKeyframes(/*newest=*/5, scene.graph, scene.points, {});
-  // 0 is the session's first, 3 has a loop, 5 is the newest. Each point starts with six
-  // observers; culling 1 leaves five (4 others for the rest), 2 four, 4 three: after that a
-  // keyframe's points would have 2 others, so 0, 3 and 5 would stay anyway.
-  EXPECT_EQ(culled, (std::vector<int>{1, 2, 4}));
+  // 0 is the session's first, 5 the newest. Each point starts with six observers; culling 1
+  // leaves five (4 others for the rest), 2 four, 3 three: after that a keyframe's points
+  // would have 2 others, so 4 stays (and 0 and 5 would anyway).
+  EXPECT_EQ(culled, (std::vector<int>{1, 2, 3}));
   EXPECT_TRUE(scene.graph.node(1).culled);
   EXPECT_EQ(scene.graph.node(1).features, nullptr);
-  EXPECT_FALSE(scene.graph.node(3).culled);
   EXPECT_TRUE(scene.points.PointsOf(1).empty());
   EXPECT_EQ(scene.points.Find(scene.points.PointsOf(0)[0])->observations.size(), 3u);
+  // 3's loop edge stays in the pose graph, 3 a pose node.
+  EXPECT_TRUE(scene.graph.node(3).culled);
+  EXPECT_TRUE(std::any_of(scene.graph.edges().begin(), scene.graph.edges().end(),
+                          [](const GraphEdge& e) {
+                            return e.kind == PoseGraphEdgeKind::kLoop && e.from == 0 && e.to == 3;
+                          }));
   // Culled keyframes leave loop search and the xi neighbours.
-  EXPECT_EQ(scene.graph.SessionNeighbours(3, 1), (std::vector<int>{0, 5}));
-  EXPECT_EQ(scene.graph.PreviousKept(3), 0);
+  EXPECT_EQ(scene.graph.SessionNeighbours(4, 1), (std::vector<int>{0, 5}));
+  EXPECT_EQ(scene.graph.PreviousKept(4), 0);
   EXPECT_EQ(scene.graph.Near(Eigen::Isometry3d::Identity(), 1, 1, {}).size(), 3u);
   // Disabled: nothing.
   CullingScene again(std::vector<std::vector<int64_t>>(6, PointIds(0, 10)));

@@ -24,8 +24,10 @@ struct Wall {
 };
 
 // What a camera at T_world_camera sees of the wall: one keypoint per point in view (octave 0),
-// at its projection, with its depth and descriptor.
-std::shared_ptr<FrameFeatures> Observe(const Wall& wall, const Eigen::Isometry3d& T_world_camera) {
+// at its projection, with its depth and descriptor; `wall_index`, when given, gets the wall
+// point of each keypoint.
+std::shared_ptr<FrameFeatures> Observe(const Wall& wall, const Eigen::Isometry3d& T_world_camera,
+                                       std::vector<int64_t>* wall_index = nullptr) {
   auto f = std::make_shared<FrameFeatures>();
   for (size_t i = 0; i < wall.points_world.size(); ++i) {
     const Eigen::Vector3d p = T_world_camera.inverse() * wall.points_world[i];
@@ -36,6 +38,7 @@ std::shared_ptr<FrameFeatures> Observe(const Wall& wall, const Eigen::Isometry3d
     f->points_camera.push_back(p);
     f->has_depth.push_back(true);
     f->descriptors.push_back(wall.descriptors.row(static_cast<int>(i)));
+    if (wall_index != nullptr) wall_index->push_back(static_cast<int64_t>(i));
   }
   return f;
 }
@@ -81,6 +84,56 @@ struct TwoVisits {
     }
   }
 };
+
+// Two visits of two keyframes each (2 cm apart within a visit, 10 cm between the visits): the
+// points of each visit are established, observed by both of its keyframes.
+struct TwoEstablishedVisits {
+  Wall wall{200};
+  KeyframeGraph graph;
+  MapPoints points;
+
+  TwoEstablishedVisits() {
+    for (int visit = 0; visit < 2; ++visit) {
+      for (int step = 0; step < 2; ++step) {
+        GraphKeyframe kf;
+        kf.session_id = 1;
+        kf.seq = 2 * visit + step;
+        kf.camera = &kFusionCamera;
+        kf.T_world_keyframe = SidewaysBy(0.1 * visit + 0.02 * step);
+        std::vector<int64_t> ids;
+        kf.features = Observe(wall, kf.T_world_keyframe, &ids);
+        for (int64_t& id : ids) id += 1000 * visit;
+        const int index = graph.Add(kf);
+        points.AddKeyframe(1, index, index, *kf.features, kf.T_world_keyframe, ids);
+      }
+    }
+  }
+};
+
+TEST(PointFusionTest, EstablishedDuplicatesAreMergedOnlyWhenAsked) {
+  {
+    TwoEstablishedVisits scene;
+    ASSERT_EQ(scene.points.Find(scene.points.PointsOf(3).front())->observations.size(), 2u);
+    const size_t before = scene.points.size();
+    const PointFusionResult r =
+        FusePointsIntoKeyframe(3, {0, 1, 2}, scene.graph, scene.points, FusionOn());
+    EXPECT_EQ(r.points_fused, 0);  // the default: both sides established, both stay
+    EXPECT_EQ(scene.points.size(), before);
+  }
+  {
+    TwoEstablishedVisits scene;
+    const size_t before = scene.points.size();
+    PointFusionOptions all = FusionOn();
+    all.merge_established = true;
+    const PointFusionResult r =
+        FusePointsIntoKeyframe(3, {0, 1, 2}, scene.graph, scene.points, all);
+    EXPECT_GT(r.points_fused, 100);
+    EXPECT_EQ(scene.points.size(), before - static_cast<size_t>(r.points_fused));
+    const MapPointState* fused = scene.points.Find(scene.points.PointsOf(3).front());
+    ASSERT_NE(fused, nullptr);
+    EXPECT_EQ(fused->observations.size(), 4u);
+  }
+}
 
 TEST(PointFusionTest, DuplicatePointsOfARevisitAreFused) {
   TwoVisits scene([](int k) { return 1000 + k; });
@@ -160,7 +213,8 @@ TEST(PointFusionTest, WrongDescriptorsDepthsOrPosesFuseNothing) {
   }
   {
     TwoVisits scene([](int k) { return 1000 + k; });
-    const PointFusionOptions off;  // the default
+    PointFusionOptions off;
+    off.enabled = false;
     EXPECT_EQ(FusePointsIntoKeyframe(1, {0}, scene.graph, scene.points, off).points_fused, 0);
     // Itself, unknown and culled neighbours are passed over.
     EXPECT_EQ(
