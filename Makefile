@@ -45,10 +45,15 @@ lint: format-check
 	bash scripts/install-deps.sh lint
 	python3 scripts/clang_tidy.py --build-dir build/release --jobs $(JOBS) $(if $(LINT_SINCE),--since $(LINT_SINCE))
 
-# clang-format on every file (no changes made) and the layer rule on the includes.
+# clang-format on every file (no changes made), the layer rule on the includes, and every
+# script with a #! line executable in git (a lost mode bit breaks `bench/x.sh` for a user).
 format-check:
 	git ls-files '*.cc' '*.h' | xargs clang-format --dry-run --Werror
 	python3 scripts/check_layers.py
+	@bad=$$(git ls-files -s '*.sh' '*.py' | awk '$$1 != "100755" {print $$4}' | \
+	  while read -r f; do head -c2 "$$f" | grep -q '^#!' && echo "$$f"; done); \
+	if [ -n "$$bad" ]; then echo "not executable in git (git update-index --chmod=+x FILE):"; \
+	  echo "$$bad"; exit 1; fi
 
 # ThreadSanitizer (clang; -Wthread-safety findings are errors) over the unit tests of the modules
 # that run threads of their own and the integration tests (SEMMAP_TEST_SCOPE=concurrency; CI).

@@ -113,10 +113,10 @@ std::string ServerOptions::ToString() const {
       << " mono_vo=" << (ingest.mono_method == MonoVoMethod::kNet ? "net" : "hybrid")
       << " loop_max_xi=" << ingest.slam.verifier.max_xi
       << " local_ba=" << (ingest.slam.local_ba.enabled ? "on" : "off")
-      << " final_ba=" << (ingest.slam.local_ba.final_ba ? "on" : "off")
-      << " point_fusion=" << (!ingest.slam.point_fusion.enabled             ? "off"
-                             : ingest.slam.point_fusion.merge_established ? "all"
-                                                                         : "on")
+      << " final_ba=" << (ingest.slam.local_ba.final_ba ? "on" : "off") << " point_fusion="
+      << (!ingest.slam.point_fusion.enabled            ? "off"
+          : ingest.slam.point_fusion.merge_established ? "all"
+                                                       : "on")
       << " slam_features_mb=" << (ingest.slam.features_memory_bytes >> 20)
       << " map_layers=" << (ingest.layers.enabled ? "on" : "off")
       << " map_resolution=" << ingest.layers.occupancy.resolution_m

@@ -82,10 +82,10 @@ TEST(KeyframeCullingTest, CullsCovisibleKeyframesOneAtATimeKeepingFirstAndNewest
   EXPECT_EQ(scene.points.Find(scene.points.PointsOf(0)[0])->observations.size(), 3u);
   // 3's loop edge stays in the pose graph, 3 a pose node.
   EXPECT_TRUE(scene.graph.node(3).culled);
-  EXPECT_TRUE(std::any_of(scene.graph.edges().begin(), scene.graph.edges().end(),
-                          [](const GraphEdge& e) {
-                            return e.kind == PoseGraphEdgeKind::kLoop && e.from == 0 && e.to == 3;
-                          }));
+  EXPECT_TRUE(
+      std::any_of(scene.graph.edges().begin(), scene.graph.edges().end(), [](const GraphEdge& e) {
+        return e.kind == PoseGraphEdgeKind::kLoop && e.from == 0 && e.to == 3;
+      }));
   // Culled keyframes leave loop search and the xi neighbours.
   EXPECT_EQ(scene.graph.SessionNeighbours(4, 1), (std::vector<int>{0, 5}));
   EXPECT_EQ(scene.graph.PreviousKept(4), 0);
