@@ -259,7 +259,7 @@ int main(int argc, char** argv) {
                "search the map points of the keyframes around each new RGBD keyframe in it: "
                "keypoints join a neighbour's point, a fresh duplicate (seen by one keyframe) "
                "is merged; all: also merge two established points (measured, that costs "
-               "ATE); needs --local-ba on; default on)");
+               "ATE); needs --local-ba on; default off)");
   args.AddFlag("slam-features-mb", "MB",
                "keyframe features each open map's SLAM back end keeps in memory; beyond it the "
                "least recently used are read back from the store when loop closure or a "

@@ -16,11 +16,11 @@
 namespace semmap {
 
 struct PointFusionOptions {
-  // On by default since the merges of two established points were left out (below): measured
-  // (docs/architecture.md), the same or better ATE on every sequence with exact ground truth
-  // here, and a revisited place shares its points, so keyframe culling finds the revisits'
-  // keyframes redundant.
-  bool enabled = true;
+  // Off by default: even merging only fresh duplicates (below), ICL kt2's ATE has a heavy tail
+  // with fusion on (4 of 13 runs over 20 mm, 1 of 7 off; docs/architecture.md). On, a
+  // revisited place shares its points, so keyframe culling finds the revisits' keyframes
+  // redundant.
+  bool enabled = false;
   // Keypoints within this many pixels (times the scale factor to the point's pyramid level) of
   // a point's projection are candidates.
   double search_radius_px = 3.0;
