@@ -116,14 +116,14 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   SEMMAP_ASSIGN_OR_RETURN(ba.enabled, args.GetOnOff("local-ba", ba.enabled));
   SEMMAP_ASSIGN_OR_RETURN(ba.final_ba, args.GetOnOff("final-ba", ba.final_ba));
   semmap::PointFusionOptions& fusion = options->ingest.slam.point_fusion;
-  const std::string fusion_mode = args.Get("point-fusion", !fusion.enabled            ? "off"
-                                                           : fusion.merge_established ? "all"
-                                                                                      : "on");
-  if (fusion_mode != "off" && fusion_mode != "on" && fusion_mode != "all") {
-    return semmap::InvalidArgumentError("--point-fusion must be off, on or all");
+  const std::string fusion_mode = args.Get("point-fusion", "");  // empty: the defaults
+  if (!fusion_mode.empty()) {
+    if (fusion_mode != "off" && fusion_mode != "on" && fusion_mode != "all") {
+      return semmap::InvalidArgumentError("--point-fusion must be off, on or all");
+    }
+    fusion.enabled = fusion_mode != "off";
+    fusion.merge_established = fusion_mode == "all";
   }
-  fusion.enabled = fusion_mode != "off";
-  fusion.merge_established = fusion_mode == "all";
   size_t& features_budget = options->ingest.slam.features_memory_bytes;
   SEMMAP_ASSIGN_OR_RETURN(
       long long features_mb,

@@ -149,11 +149,12 @@ PointFusionResult FusePointsIntoKeyframe(int keyframe, const std::vector<int>& n
     }
     const MapPointState* other = points.Find(there->second);
     if (other == nullptr || other->id == id) continue;
-    // The better-established point stays (ties: the older).
+    // Two established points both stay unless asked (PointFusionOptions::merge_established).
     if (!options.merge_established && point->observations.size() > 1 &&
         other->observations.size() > 1) {
       continue;
     }
+    // The better-established point stays (ties: the older).
     const bool keep_other =
         other->observations.size() > point->observations.size() ||
         (other->observations.size() == point->observations.size() && other->id < id);

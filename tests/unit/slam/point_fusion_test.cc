@@ -213,8 +213,7 @@ TEST(PointFusionTest, WrongDescriptorsDepthsOrPosesFuseNothing) {
   }
   {
     TwoVisits scene([](int k) { return 1000 + k; });
-    PointFusionOptions off;
-    off.enabled = false;
+    const PointFusionOptions off;  // the default
     EXPECT_EQ(FusePointsIntoKeyframe(1, {0}, scene.graph, scene.points, off).points_fused, 0);
     // Itself, unknown and culled neighbours are passed over.
     EXPECT_EQ(
