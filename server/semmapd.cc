@@ -91,6 +91,9 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   SEMMAP_ASSIGN_OR_RETURN(
       options->ingest.keyframes.rotation_weight,
       args.GetDouble("keyframe-rotation-weight", options->ingest.keyframes.rotation_weight));
+  SEMMAP_ASSIGN_OR_RETURN(
+      options->ingest.keyframes.skip_mapped_views,
+      args.GetOnOff("keyframe-skip-mapped", options->ingest.keyframes.skip_mapped_views));
   const std::string vocabulary = args.Get("vocabulary", "");
   if (vocabulary == "none") {
     options->vocabulary_path.clear();
@@ -237,6 +240,10 @@ int main(int argc, char** argv) {
   args.AddFlag("keyframe-min-motion", "M", "keyframe motion threshold (default 0.10)");
   args.AddFlag("keyframe-rotation-weight", "M_PER_RAD",
                "rotation weight in the motion norm (default 0.5)");
+  args.AddFlag("keyframe-skip-mapped", "on|off",
+               "RGBD: a frame within the keyframe motion threshold of a keyframe the map already "
+               "holds (a revisit, any session's) makes no keyframe, so a map revisited every day "
+               "stops growing (default on; off: revisits add keyframes as a first visit does)");
   args.AddFlag("vocabulary", "FILE|none",
                "place-recognition vocabulary for loop closure (default: the bundled "
                "models/orb_vocab.bin; none: loops by pose proximity only)");

@@ -108,6 +108,7 @@ std::string ServerOptions::ToString() const {
       << " max_registrations_per_minute=" << calls.max_registrations_per_minute
       << " keyframe_min_motion=" << ingest.keyframes.min_motion
       << " keyframe_rotation_weight=" << ingest.keyframes.rotation_weight
+      << " keyframe_skip_mapped=" << (ingest.keyframes.skip_mapped_views ? "on" : "off")
       << " vocabulary=" << (vocabulary_path.empty() ? "none" : vocabulary_path)
       << " vo_model=" << (vo_model_path.empty() ? "none" : vo_model_path)
       << " mono_vo=" << (ingest.mono_method == MonoVoMethod::kNet ? "net" : "hybrid")

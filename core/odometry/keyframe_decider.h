@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <vector>
 
 namespace semmap {
 
@@ -21,6 +22,10 @@ struct KeyframeCandidate {
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
   bool has_depth = true;  // the frame's own depth (visual modes make keyframes only with it)
   int num_inliers = 0;    // kTracked: inliers of the pose estimate
+  // kTracked: keyframes the map already holds around the frame (any session's, from the
+  // back end's latest map update), null when none are known. A frame this close to one of
+  // them shows nothing the map lacks (a revisit): motion alone does not make it a keyframe.
+  const std::vector<Eigen::Isometry3d>* mapped_keyframes = nullptr;
 };
 
 class KeyframeDecider {

@@ -60,6 +60,7 @@ void LocalMap::AddKeyframe(int keyframe_id, const FrameFeatures& f, const Eigen:
     MapPoint& mp = points_[static_cast<size_t>(m)];
     if (point_ids) (*point_ids)[k] = mp.id;
     mp.last_keyframe = keyframe_id;
+    mp.own = true;
     mp.octave = f.keypoints[k].octave;
     f.descriptors.row(static_cast<int>(k)).copyTo(descriptors_.row(m));
     if (f.has_depth[k]) {
@@ -91,6 +92,7 @@ void LocalMap::AddKeyframe(int keyframe_id, const FrameFeatures& f, const Eigen:
     mp.id = next_id_++;
     if (point_ids) (*point_ids)[k] = mp.id;
     mp.last_keyframe = keyframe_id;
+    mp.own = true;
     mp.octave = f.keypoints[k].octave;
     Fuse(&mp, T_wc * f.points_camera[k],
          ObservationInformation(f.points_camera[k], f.keypoints[k].octave, R));
@@ -117,6 +119,7 @@ void LocalMap::Merge(const LocalMapUpdate& update, const Eigen::Isometry3d& T_ne
                                  update.descriptors.type() != descriptors_.type()))) {
     return;
   }
+  if (update.refresh) DropUpdateOnlyPointsNotIn(update);
   std::unordered_map<int64_t, size_t> index;
   index.reserve(points_.size());
   for (size_t i = 0; i < points_.size(); ++i) index.emplace(points_[i].id, i);
@@ -154,6 +157,25 @@ void LocalMap::Merge(const LocalMapUpdate& update, const Eigen::Isometry3d& T_ne
     update.descriptors.row(static_cast<int>(added[a]))
         .copyTo(descriptors.row(old_rows + static_cast<int>(a)));
   }
+  descriptors_ = descriptors;
+}
+
+void LocalMap::DropUpdateOnlyPointsNotIn(const LocalMapUpdate& update) {
+  const std::unordered_set<int64_t> in_update(update.ids.begin(), update.ids.end());
+  std::vector<MapPoint> kept;
+  std::vector<int> kept_rows;
+  kept.reserve(points_.size());
+  for (size_t i = 0; i < points_.size(); ++i) {
+    if (!points_[i].own && in_update.count(points_[i].id) == 0) continue;
+    kept.push_back(points_[i]);
+    kept_rows.push_back(static_cast<int>(i));
+  }
+  if (kept.size() == points_.size()) return;
+  cv::Mat descriptors(static_cast<int>(kept.size()), descriptors_.cols, descriptors_.type());
+  for (size_t r = 0; r < kept_rows.size(); ++r) {
+    descriptors_.row(kept_rows[r]).copyTo(descriptors.row(static_cast<int>(r)));
+  }
+  points_ = std::move(kept);
   descriptors_ = descriptors;
 }
 

@@ -42,6 +42,7 @@ struct MapPoint {
   int visible = 0;                // frames that predicted it in view
   int found = 0;                  // ... and matched it as an inlier
   int64_t last_found_frame = -1;  // the tracker's number of the last frame that found it
+  bool own = false;  // observed by one of the tracker's keyframes (else known from updates only)
   // The back end fused it into another point (published under that point's id): it is no
   // longer projected or matched, and goes at the next keyframe.
   bool retired = false;
@@ -59,6 +60,14 @@ struct LocalMapUpdate {
   // Tracker ids of this session fused into one of the points above: without retiring them the
   // tracker would keep matching a stale copy of each fused point beside the refined one.
   std::vector<int64_t> retired_ids;
+  // Poses of the keyframes (any session's) the points come from: the views the map already
+  // has around the tracker (KeyframeCandidate::mapped_keyframes).
+  std::vector<Eigen::Isometry3d> keyframe_poses_world;
+  // Sent because the camera moved on through mapped keyframes without making any (a revisit),
+  // not after a new keyframe: the points earlier updates brought that this one does not have
+  // and that none of the tracker's keyframes observed go, so the local map follows the camera
+  // through the mapped place instead of growing with it.
+  bool refresh = false;
 };
 
 class LocalMap {
@@ -89,7 +98,8 @@ class LocalMap {
 
   // Takes the back end's points (positions re-expressed as T_new_update * p): known ids move
   // to the refined position, unknown ones are added as observed by keyframe `keyframe_id` (so
-  // they stay for the window unless tracking finds them again); retired ids are retired.
+  // they stay for the window unless tracking finds them again); retired ids are retired. A
+  // refresh (LocalMapUpdate::refresh) drops the update-only points it does not hold.
   void Merge(const LocalMapUpdate& update, const Eigen::Isometry3d& T_new_update, int keyframe_id);
 
   // Re-expresses every point as T_new_world * point.
@@ -102,6 +112,8 @@ class LocalMap {
   Eigen::Matrix3d ObservationInformation(const Eigen::Vector3d& p_camera, int octave,
                                          const Eigen::Matrix3d& R_world_camera) const;
   void Fuse(MapPoint* point, const Eigen::Vector3d& p_world, const Eigen::Matrix3d& info) const;
+  // LocalMapUpdate::refresh: forgets the points only updates brought that `update` lacks.
+  void DropUpdateOnlyPointsNotIn(const LocalMapUpdate& update);
 
   LocalMapOptions options_;
   CameraCalibration camera_;

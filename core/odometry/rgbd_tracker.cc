@@ -67,6 +67,7 @@ std::shared_ptr<const FrameFeatures> RgbdTracker::StartSegment(
     FrameFeatures features, const Eigen::Isometry3d& T_world_camera) {
   keyframes_.clear();
   map_.Clear();
+  mapped_keyframes_.clear();
   KeyframeCandidate start;
   start.evidence = KeyframeEvidence::kSegmentStart;
   start.T_world_camera = T_world_camera;
@@ -106,6 +107,9 @@ std::shared_ptr<const FrameFeatures> RgbdTracker::MakeKeyframe(
 void RgbdTracker::ApplyCorrection(const Eigen::Isometry3d& T_corrected_world) {
   for (Keyframe& kf : keyframes_) kf.T_world_camera = T_corrected_world * kf.T_world_camera;
   map_.Transform(T_corrected_world);
+  for (Eigen::Isometry3d& T_world_keyframe : mapped_keyframes_) {
+    T_world_keyframe = T_corrected_world * T_world_keyframe;
+  }
   if (T_world_last_) T_world_last_ = T_corrected_world * *T_world_last_;
   // T_last_velocity_ is relative (T_prev_last): unchanged. The decider measures motion from
   // the last keyframe, which moved too.
@@ -116,6 +120,10 @@ void RgbdTracker::ApplyMapUpdate(const LocalMapUpdate& update,
                                  const Eigen::Isometry3d& T_new_update) {
   if (num_keyframes_ == 0) return;
   map_.Merge(update, T_new_update, num_keyframes_ - 1);
+  mapped_keyframes_.clear();
+  for (const Eigen::Isometry3d& T_update_keyframe : update.keyframe_poses_world) {
+    mapped_keyframes_.push_back(T_new_update * T_update_keyframe);
+  }
 }
 
 void RgbdTracker::ProjectMap(const Eigen::Isometry3d& T_world_camera,
@@ -479,6 +487,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
   candidate.T_world_camera = T_world_current;
   candidate.has_depth = has_depth;
   candidate.num_inliers = result.num_inliers;
+  candidate.mapped_keyframes = &mapped_keyframes_;
   const bool make_keyframe = keyframes_decider_->Decide(candidate);
   if (make_keyframe) {
     result.keyframe_features =

@@ -119,7 +119,8 @@ class RgbdTracker {
   void ApplyCorrection(const Eigen::Isometry3d& T_corrected_world);
   // The back end's refined points around the tracker (LocalMapUpdate), positions re-expressed
   // as T_new_update * p: tracking then matches against them, including points the local map
-  // had already forgotten (a revisited place).
+  // had already forgotten (a revisited place). Its keyframes' poses tell the keyframe decider
+  // which views the map already has.
   void ApplyMapUpdate(const LocalMapUpdate& update, const Eigen::Isometry3d& T_new_update);
 
   int num_keyframes() const { return num_keyframes_; }
@@ -199,6 +200,8 @@ class RgbdTracker {
   std::unique_ptr<KeyframeDecider> keyframes_decider_;
   LocalMap map_;
   std::deque<Keyframe> keyframes_;  // back() is the reference
+  // The keyframes of the back end's latest map update (world frame), for the decider.
+  std::vector<Eigen::Isometry3d> mapped_keyframes_;
   int num_keyframes_ = 0;
   std::optional<Eigen::Isometry3d> T_world_last_;
   Eigen::Isometry3d T_last_velocity_ = Eigen::Isometry3d::Identity();  // T_prev_last

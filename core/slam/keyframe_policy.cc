@@ -34,6 +34,22 @@ bool KeyframePolicy::MovedFarEnough(const Eigen::Isometry3d& T_world_camera) con
          MotionNorm(T_world_last_->inverse() * T_world_camera) > options_.min_motion;
 }
 
+bool KeyframePolicy::MapHoldsTheView(const KeyframeCandidate& candidate) const {
+  if (!options_.skip_mapped_views || candidate.mapped_keyframes == nullptr) return false;
+  const Eigen::Isometry3d T_camera_world = candidate.T_world_camera.inverse();
+  for (const Eigen::Isometry3d& T_world_keyframe : *candidate.mapped_keyframes) {
+    if (MotionNorm(T_camera_world * T_world_keyframe) > options_.min_motion) continue;
+    // The reference keyframe itself (as the back end refined it) does not count: a frame
+    // whose inliers fall while it is still near the reference sees what the map lacks.
+    if (T_world_last_ &&
+        MotionNorm(T_world_last_->inverse() * T_world_keyframe) <= 0.5 * options_.min_motion) {
+      continue;
+    }
+    return true;
+  }
+  return false;
+}
+
 void KeyframePolicy::StartFrom(const Eigen::Isometry3d& T_world_keyframe) {
   T_world_last_ = T_world_keyframe;
   reference_inliers_.reset();
@@ -56,7 +72,7 @@ bool KeyframePolicy::Decide(const KeyframeCandidate& candidate) {
       if (!candidate.has_depth) break;
       if (!reference_inliers_) reference_inliers_ = candidate.num_inliers;
       const bool weak = candidate.num_inliers < options_.min_inlier_fraction * *reference_inliers_;
-      keyframe = weak || MovedFarEnough(candidate.T_world_camera);
+      keyframe = (weak || MovedFarEnough(candidate.T_world_camera)) && !MapHoldsTheView(candidate);
       break;
     }
   }

@@ -6,7 +6,12 @@
 //    exceeds min_motion (rotation counted at rotation_weight metres per radian) -- for known
 //    poses and the learned VO's predicted motion (MONO) that alone decides -- or, when
 //    tracked visually, when its inliers fall below min_inlier_fraction of those of the first
-//    frame tracked against the current reference (the view is leaving the reference).
+//    frame tracked against the current reference (the view is leaving the reference);
+//  - but a visually tracked frame within min_motion of a keyframe the map already holds
+//    (any session's, other than the reference: a revisit) does not become one
+//    (skip_mapped_views): the map has that view, and the back end keeps the tracker's local
+//    map on the mapped keyframes the camera passes. Revisiting a mapped place adds keyframes
+//    only where the map lacks a view, so a map visited every day stops growing.
 // Front ends ask through KeyframeDecider (core/odometry/keyframe_decider.h).
 #pragma once
 
@@ -24,6 +29,9 @@ struct KeyframePolicyOptions {
   // Visual tracking: a keyframe when the inliers fall below this fraction of the inliers of
   // the first frame tracked against the reference; 0 disables the test.
   double min_inlier_fraction = 0.4;
+  // Visual tracking: no keyframe when the frame is within min_motion of a keyframe the map
+  // holds (KeyframeCandidate::mapped_keyframes) other than the reference.
+  bool skip_mapped_views = true;
   Status Validate() const;
 };
 
@@ -41,6 +49,9 @@ class KeyframePolicy final : public KeyframeDecider {
 
  private:
   bool MovedFarEnough(const Eigen::Isometry3d& T_world_camera) const;
+  // A keyframe of the map's (candidate.mapped_keyframes) within min_motion of the frame, other
+  // than the reference (keyframes within half of min_motion of it).
+  bool MapHoldsTheView(const KeyframeCandidate& candidate) const;
   void StartFrom(const Eigen::Isometry3d& T_world_keyframe);
 
   KeyframePolicyOptions options_;

@@ -39,10 +39,10 @@ int MapPoints::AddKeyframe(int64_t session_id, int keyframe, int index_in_sessio
   for (size_t k = 0; k < n; ++k) {
     const int64_t tracker_id = tracker_point_ids[k];
     if (tracker_id < 0) continue;
-    const auto known = by_tracker_id_.find({session_id, tracker_id});
+    const std::optional<int64_t> known = Resolve(session_id, tracker_id);
     MapPointState* point = nullptr;
-    if (known != by_tracker_id_.end()) {
-      point = &points_.at(known->second);
+    if (known) {
+      point = &points_.at(*known);
       // One observation per keyframe: a second keypoint naming the point is a duplicate match.
       if (!point->observations.empty() && point->observations.back().keyframe == keyframe) {
         continue;
@@ -168,9 +168,10 @@ bool MapPoints::Fuse(int64_t keep, int64_t drop) {
     kept.observations.push_back(o);
     of_keyframe.push_back(keep);
   }
-  // Every tracker id of the dropped point now names the kept one.
+  // Every tracker id of the dropped point now names the kept one, its foreign name included.
   std::vector<std::pair<int64_t, int64_t>> names = d->second.aliases;
   names.emplace_back(d->second.session_id, d->second.tracker_id);
+  names.emplace_back(kAnySession, kForeignTrackerIdBase + drop);
   for (const auto& name : names) {
     by_tracker_id_[name] = keep;
     kept.aliases.push_back(name);
@@ -233,18 +234,32 @@ int64_t MapPoints::Restore(int64_t session_id, const Eigen::Vector3d& position_w
   return id;
 }
 
-int64_t MapPoints::TrackerIdFor(int64_t session_id, int64_t id) {
+int64_t MapPoints::TrackerIdFor(int64_t session_id, int64_t id) const {
   const auto it = points_.find(id);
   if (it == points_.end()) return -1;
-  MapPointState& point = it->second;
+  const MapPointState& point = it->second;
   if (point.session_id == session_id && point.tracker_id >= 0) return point.tracker_id;
   for (const auto& [session, tracker_id] : point.aliases) {
     if (session == session_id) return tracker_id;
   }
-  const std::pair<int64_t, int64_t> alias{session_id, kForeignTrackerIdBase + id};
-  by_tracker_id_[alias] = id;
-  point.aliases.push_back(alias);
-  return alias.second;
+  return kForeignTrackerIdBase + id;
+}
+
+std::optional<int64_t> MapPoints::Resolve(int64_t session_id, int64_t tracker_id) const {
+  if (const auto named = by_tracker_id_.find({session_id, tracker_id});
+      named != by_tracker_id_.end()) {
+    return named->second;
+  }
+  if (tracker_id < kForeignTrackerIdBase) return std::nullopt;
+  if (points_.count(tracker_id - kForeignTrackerIdBase) != 0) {
+    return tracker_id - kForeignTrackerIdBase;
+  }
+  // The foreign name of a point fused into another.
+  if (const auto fused = by_tracker_id_.find({kAnySession, tracker_id});
+      fused != by_tracker_id_.end()) {
+    return fused->second;
+  }
+  return std::nullopt;
 }
 
 void MapPoints::ForEach(const std::function<void(const MapPointState&)>& visit) const {

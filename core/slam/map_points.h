@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <optional>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -52,7 +53,9 @@ struct MapPointState {
   std::vector<MapPointObservation> observations;  // at most one per keyframe
   int64_t session_id = 0;
   int64_t tracker_id = 0;  // the session tracker's id for it
-  // Other (session, tracker id) pairs that name it: points fused into it.
+  // Other (session, tracker id) pairs that name it: points fused into it. A fused point's
+  // foreign name (kForeignTrackerIdBase + its id, which any session may know it by) is kept
+  // under session kAnySession.
   std::vector<std::pair<int64_t, int64_t>> aliases;
   int created_in_session = 0;  // index_in_session of the keyframe that created it
 };
@@ -111,11 +114,14 @@ class MapPoints {
   int64_t Restore(int64_t session_id, const Eigen::Vector3d& position_world,
                   std::vector<MapPointObservation> observations);
   // The id session `session_id`'s tracker knows point `id` by: the tracker id it created the
-  // point under, or an alias. A point it never named (another session's, a restored one) gets
-  // the alias kForeignTrackerIdBase + id, a range trackers never issue, so keypoints its
-  // keyframes match to that id become observations of this point. -1 for an unknown point.
-  int64_t TrackerIdFor(int64_t session_id, int64_t id);
+  // point under, or an alias. A point it never named (another session's, a restored one) goes
+  // by its foreign name kForeignTrackerIdBase + id, a range trackers never issue, so keypoints
+  // its keyframes match to that id become observations of this point. Foreign names are not
+  // stored per session (a map revisited every day would grow by every point each visit sees).
+  // -1 for an unknown point.
+  int64_t TrackerIdFor(int64_t session_id, int64_t id) const;
   static constexpr int64_t kForeignTrackerIdBase = int64_t{1} << 62;
+  static constexpr int64_t kAnySession = -1;
   void ForEach(const std::function<void(const MapPointState&)>& visit) const;
   // Removes every observation of `keyframe` (a culled keyframe); points left without one are
   // removed.
@@ -133,6 +139,9 @@ class MapPoints {
 
  private:
   void Erase(int64_t id);
+  // The point session `session_id`'s tracker id names (its own, an alias, a foreign name), if
+  // it is in the map.
+  std::optional<int64_t> Resolve(int64_t session_id, int64_t tracker_id) const;
 
   MapPointsOptions options_;
   std::unordered_map<int64_t, MapPointState> points_;

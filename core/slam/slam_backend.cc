@@ -242,7 +242,7 @@ void SlamBackend::Restore(const MapSnapshot& snapshot) {
       last_keyframe[session_id] = {pose.seq, pose.T_world_camera};
     const auto anchor = last_keyframe.find(session_id);
     if (anchor == last_keyframe.end()) continue;
-    AddAnchor(session_id, {pose.seq, anchor->second.first,
+    AddAnchor(session_id, {pose.seq, session_id, anchor->second.first,
                            anchor->second.second.inverse() * pose.T_world_camera});
   }
 }
@@ -317,7 +317,8 @@ Status SlamBackend::AddKeyframe(KeyframeEvent event) {
 
 void SlamBackend::AddAnchor(int64_t session_id, const FrameAnchor& anchor) {
   std::vector<FrameAnchor>& anchors = anchors_[session_id];
-  anchors_of_keyframe_[{session_id, anchor.anchor_seq}].push_back(anchors.size());
+  anchors_of_keyframe_[{anchor.anchor_session_id, anchor.anchor_seq}].emplace_back(session_id,
+                                                                                   anchors.size());
   anchors.push_back(anchor);
 }
 
@@ -399,7 +400,7 @@ void SlamBackend::OnStop() {
 
 void SlamBackend::HandleFrame(const FrameAnchorEvent& event) {
   std::optional<int> anchor = graph_.Find(event.session_id, event.anchor_seq);
-  FrameAnchor added{event.seq, event.anchor_seq, event.T_anchor_frame};
+  FrameAnchor added{event.seq, event.session_id, event.anchor_seq, event.T_anchor_frame};
   if (anchor && graph_.node(*anchor).culled) {
     // Culled since the tracker chose it: the frame follows the previous kept keyframe.
     if (const std::optional<int> kept = graph_.PreviousKept(*anchor)) {
@@ -409,14 +410,56 @@ void SlamBackend::HandleFrame(const FrameAnchorEvent& event) {
       anchor = kept;
     }
   }
-  AddAnchor(event.session_id, added);
-  if (!anchor) return;  // its keyframe never reached the graph (unregistered session)
+  if (!anchor) {  // its keyframe never reached the graph (unregistered session)
+    AddAnchor(event.session_id, added);
+    return;
+  }
   // A frame tracked before its session applied the latest correction was stored in the old
   // frame: move it now.
   const Eigen::Isometry3d T = graph_.node(*anchor).T_world_keyframe * event.T_anchor_frame;
   if (Moved(T, event.T_world_frame)) {
     pending_.pose_updates.push_back({event.session_id, event.seq, T});
   }
+  const std::vector<int> near = graph_.Near(
+      T, options_.tracking_map_near_radius_m, options_.tracking_map_near_angle_deg * kPi / 180.0,
+      [&](int k) { return !graph_.SameComponent(k, *anchor); });
+  if (std::find(near.begin(), near.end(), *anchor) == near.end()) {
+    // A revisit far from the session's latest keyframe (it made none here): the frame was
+    // tracked against the mapped keyframes around it and follows the nearest when they move.
+    const auto mapped = std::find_if(near.begin(), near.end(),
+                                     [&](int k) { return MappedFor(event.session_id, k); });
+    if (mapped != near.end()) {
+      const GraphKeyframe& nearest = graph_.node(*mapped);
+      added = {event.seq, nearest.session_id, nearest.seq, nearest.T_world_keyframe.inverse() * T};
+    }
+  }
+  AddAnchor(event.session_id, added);
+  FollowCamera(event.session_id, *anchor, near);
+}
+
+bool SlamBackend::MappedFor(int64_t session_id, int k) const {
+  const GraphKeyframe& node = graph_.node(k);
+  const auto close_in_order = [&](int other) {
+    const GraphKeyframe& o = graph_.node(other);
+    return o.session_id == node.session_id &&
+           std::abs(o.index_in_session - node.index_in_session) <= options_.exclude_recent;
+  };
+  if (const std::optional<int> newest = graph_.LastOfSession(session_id);
+      newest && close_in_order(*newest)) {
+    return true;
+  }
+  const auto loops = loop_candidates_.find(session_id);
+  return loops != loop_candidates_.end() &&
+         std::any_of(loops->second.begin(), loops->second.end(), close_in_order);
+}
+
+void SlamBackend::FollowCamera(int64_t session_id, int anchor, const std::vector<int>& near) {
+  const auto centre = tracking_map_centre_.find(session_id);
+  // Only sessions whose tracker takes the map's points (they were sent some already).
+  if (centre == tracking_map_centre_.end()) return;
+  // Near its own keyframe the tracker has the points itself (its local map).
+  if (near.empty() || near.front() == centre->second || near.front() == anchor) return;
+  PublishTrackingMap(near.front(), session_id, /*refresh=*/true);
 }
 
 void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
@@ -476,6 +519,19 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
   }
   if (loop && options_.local_ba.enabled && options_.local_ba.fuse_loop_points) {
     FuseLoopPoints(*loop);
+  }
+  if (loop) {
+    // The map agrees with the session's tracking around the candidate now: its tracker learns
+    // of those keyframes (MappedFor) at once rather than at its next keyframe.
+    if (const std::optional<int> candidate =
+            graph_.Find(loop->candidate_session_id, loop->candidate_seq)) {
+      std::deque<int>& remembered = loop_candidates_[loop->query_session_id];
+      remembered.push_back(*candidate);
+      if (remembered.size() > kLoopsRemembered) remembered.pop_front();
+      if (options_.local_ba.enabled && !event.point_ids.empty()) {
+        PublishTrackingMap(index, loop->query_session_id, /*refresh=*/false);
+      }
+    }
   }
   features_memory_.Trim(graph_);
   SubmitPending();
@@ -680,7 +736,7 @@ void SlamBackend::LocalBundleAdjust(int index) {
   }
   if (!report->ran) return;
   ApplyMovedPoses(report->moved_keyframes, /*move_points=*/false);
-  PublishTrackingMap(index);
+  PublishTrackingMap(index, graph_.node(index).session_id, /*refresh=*/false);
   std::lock_guard lock(mutex_);
   ++stats_.local_ba_runs;
   if (waiting == 1) ++stats_.local_ba_shrunk;
@@ -722,19 +778,20 @@ void SlamBackend::FusePoints(int index) {
   stats_.map_points_fused_by_projection += static_cast<uint64_t>(result.points_fused);
 }
 
-void SlamBackend::PublishTrackingMap(int index) {
-  const GraphKeyframe& newest = graph_.node(index);
+void SlamBackend::PublishTrackingMap(int index, int64_t session_id, bool refresh) {
   const auto registered = [&] {
-    const auto it = sessions_.find(newest.session_id);
+    const auto it = sessions_.find(session_id);
     return it != sessions_.end() && it->second.on_map_update ? &it->second : nullptr;
   };
   {
     std::lock_guard lock(mutex_);
     if (registered() == nullptr || options_.tracking_map_max_points == 0) return;
   }
+  tracking_map_centre_[session_id] = index;
   const std::vector<int> keyframes = Neighbourhood(index);
   WithFeatures(NewestObservers(keyframes));  // the points' descriptors
   auto update = std::make_shared<LocalMapUpdate>();
+  update->refresh = refresh;
   std::set<int64_t> taken;
   for (int k : keyframes) {
     for (int64_t id : map_points_.PointsOf(k)) {
@@ -745,15 +802,15 @@ void SlamBackend::PublishTrackingMap(int index) {
       const MapPointObservation& o = point->observations.back();
       if (!graph_.node(o.keyframe).features) continue;  // unreadable (WithFeatures logged it)
       const FrameFeatures& f = *graph_.node(o.keyframe).features;
-      const int64_t tracker_id = map_points_.TrackerIdFor(newest.session_id, id);
+      const int64_t tracker_id = map_points_.TrackerIdFor(session_id, id);
       update->ids.push_back(tracker_id);
       // The session's other names of it: points fusion merged into it.
-      if (point->session_id == newest.session_id && point->tracker_id >= 0 &&
+      if (point->session_id == session_id && point->tracker_id >= 0 &&
           point->tracker_id != tracker_id) {
         update->retired_ids.push_back(point->tracker_id);
       }
       for (const auto& [session, alias] : point->aliases) {
-        if (session == newest.session_id && alias != tracker_id) {
+        if ((session == session_id || session == MapPoints::kAnySession) && alias != tracker_id) {
           update->retired_ids.push_back(alias);
         }
       }
@@ -763,6 +820,12 @@ void SlamBackend::PublishTrackingMap(int index) {
     }
   }
   if (update->ids.empty()) return;
+  for (int k : keyframes) {
+    const GraphKeyframe& node = graph_.node(k);
+    if (!node.culled && graph_.SameComponent(k, index) && MappedFor(session_id, k)) {
+      update->keyframe_poses_world.push_back(node.T_world_keyframe);
+    }
+  }
   // Called under the lock, as corrections are: UnregisterSession waits for it to return.
   std::lock_guard lock(mutex_);
   if (SessionState* state = registered()) state->on_map_update(std::move(update));
@@ -785,16 +848,16 @@ void SlamBackend::ApplyMovedPoses(const PosesBefore& before, bool move_points) {
     // Every frame anchored to a moved keyframe is rewritten.
     const auto anchored = anchors_of_keyframe_.find({k.session_id, k.seq});
     if (anchored == anchors_of_keyframe_.end()) continue;
-    const std::vector<FrameAnchor>& anchors = anchors_[k.session_id];
-    for (size_t a : anchored->second) {
-      const Eigen::Isometry3d T = k.T_world_keyframe * anchors[a].T_anchor_frame;
-      pending_.pose_updates.push_back({k.session_id, anchors[a].seq, T});
-      if (anchors[a].seq == k.seq) continue;
+    for (const auto& [session_id, position] : anchored->second) {
+      const FrameAnchor& anchor = anchors_[session_id][position];
+      const Eigen::Isometry3d T = k.T_world_keyframe * anchor.T_anchor_frame;
+      pending_.pose_updates.push_back({session_id, anchor.seq, T});
+      if (session_id == k.session_id && anchor.seq == k.seq) continue;
       // A culled keyframe re-anchored here follows as its frame does.
-      const std::optional<int> culled = graph_.Find(k.session_id, anchors[a].seq);
+      const std::optional<int> culled = graph_.Find(session_id, anchor.seq);
       if (culled && graph_.node(*culled).culled) {
         graph_.SetPose(*culled, T);
-        poses.push_back({k.session_id, anchors[a].seq, T});
+        poses.push_back({session_id, anchor.seq, T});
       }
     }
   }
@@ -891,13 +954,13 @@ void SlamBackend::ReanchorFrames(int k) {
   const Eigen::Isometry3d T_kept_gone = to.T_world_keyframe.inverse() * gone.T_world_keyframe;
   const auto from = anchors_of_keyframe_.find({gone.session_id, gone.seq});
   if (from == anchors_of_keyframe_.end()) return;
-  std::vector<FrameAnchor>& anchors = anchors_[gone.session_id];
-  std::vector<size_t>& of_kept = anchors_of_keyframe_[{to.session_id, to.seq}];
-  for (size_t position : from->second) {
-    FrameAnchor& anchor = anchors[position];
+  std::vector<std::pair<int64_t, size_t>>& of_kept = anchors_of_keyframe_[{to.session_id, to.seq}];
+  for (const auto& [session_id, position] : from->second) {
+    FrameAnchor& anchor = anchors_[session_id][position];
     anchor.T_anchor_frame = T_kept_gone * anchor.T_anchor_frame;
+    anchor.anchor_session_id = to.session_id;
     anchor.anchor_seq = to.seq;
-    of_kept.push_back(position);
+    of_kept.emplace_back(session_id, position);
   }
   std::sort(of_kept.begin(), of_kept.end());
   anchors_of_keyframe_.erase(from);

@@ -121,7 +121,9 @@ struct KeyframeEvent {
 };
 
 // Every frame's pose relative to the keyframe it was tracked from, so stored poses follow that
-// keyframe when the graph moves it. `T_world_frame` is what the session stored.
+// keyframe when the graph moves it (on a revisit, far from the session's latest keyframe, the
+// back end anchors it to the nearest mapped keyframe instead). `T_world_frame` is what the
+// session stored.
 struct FrameAnchorEvent {
   int64_t session_id = 0;
   int64_t seq = 0;
@@ -264,8 +266,11 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
     CorrectionCallback on_correction;  // empty once unregistered
     MapUpdateCallback on_map_update;   // likewise
   };
+  // A frame (of the session whose anchors_ entry holds it) and the keyframe it follows, which
+  // may be another session's (a revisit).
   struct FrameAnchor {
     int64_t seq = 0;
+    int64_t anchor_session_id = 0;
     int64_t anchor_seq = 0;
     Eigen::Isometry3d T_anchor_frame = Eigen::Isometry3d::Identity();
   };
@@ -315,7 +320,21 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   // component): the tracking map's keyframes and point fusion's neighbours.
   std::vector<int> Neighbourhood(int index) const;
   void FusePoints(int index);  // PointFusionOptions, before the local BA
-  void PublishTrackingMap(int index);
+  // Sends `session_id` the points around keyframe `centre` (LocalMapUpdate; `refresh` as
+  // there) and remembers `centre` as the session's tracking-map centre.
+  void PublishTrackingMap(int centre, int64_t session_id, bool refresh);
+  // A frame of a session that makes no keyframes while it moves on through mapped ones (a
+  // revisit): when the mapped keyframe nearest to it is neither its tracking map's centre nor
+  // the keyframe it was tracked from, the tracker gets the points around that keyframe (a
+  // refresh).
+  // Whether keyframe `k` counts as a view session `session_id`'s map already has
+  // (LocalMapUpdate::keyframe_poses_world): one of the session's own latest keyframes (within
+  // exclude_recent of its newest, in its order), or within exclude_recent of the candidate of
+  // one of its accepted loops in that one's session. A keyframe only near by pose does not
+  // count: until a loop is verified there, the map's pose of it may be off by the drift.
+  bool MappedFor(int64_t session_id, int k) const;
+  // `near`: the mapped keyframes near the frame, nearest first (KeyframeGraph::Near).
+  void FollowCamera(int64_t session_id, int anchor, const std::vector<int>& near);
   // Publishes the moves of the nodes in `before` that moved: the layers' listener, stored
   // poses of their frames, the sessions whose latest keyframe moved; with move_points, the
   // map points follow the keyframe that created them (a pose-graph correction; BA solves
@@ -351,10 +370,17 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   std::map<int64_t, std::deque<int>> words_kept_;  // by session, oldest first
   WriteBatch pending_;
   std::map<int64_t, std::vector<FrameAnchor>> anchors_;  // by session, in seq order
-  // Positions in anchors_[session] of the frames anchored to each (session, keyframe seq).
-  std::map<std::pair<int64_t, int64_t>, std::vector<size_t>> anchors_of_keyframe_;
+  // The frames anchored to each (session, keyframe seq): (frame's session, position in
+  // anchors_[that session]).
+  std::map<std::pair<int64_t, int64_t>, std::vector<std::pair<int64_t, size_t>>>
+      anchors_of_keyframe_;
   MapPoints map_points_;
   KeyframeFeatureMemory features_memory_;
+  std::map<int64_t, int> tracking_map_centre_;  // by session: the keyframe it was last sent
+  // By session: the candidates of its latest accepted loops (at most kLoopsRemembered), where
+  // the map is known to agree with its tracking (MappedFor).
+  static constexpr size_t kLoopsRemembered = 8;
+  std::map<int64_t, std::deque<int>> loop_candidates_;
   std::atomic<int> queued_keyframes_{0};  // added, not yet handled
   bool keyframes_since_final_ba_ = false;
   bool map_points_changed_ = false;  // since they were last written to the store

@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <random>
+#include <set>
 #include <vector>
 
 #include "core/odometry/local_map.h"
@@ -186,6 +187,48 @@ TEST(LocalMapTest, PointsKeepTheirIdsAndTakeTheBackEndsPositions) {
   bool kept_999 = false;
   for (size_t i = 0; i < map.size(); ++i) kept_999 |= map.point(i).id == 999;
   EXPECT_TRUE(kept_999);
+}
+
+// A revisit: the tracker makes no keyframes while the back end refreshes its map with the
+// points around each mapped keyframe it passes. A refresh forgets the points earlier updates
+// brought that it does not hold; the tracker's own keyframes' points stay.
+TEST(LocalMapTest, ARefreshReplacesThePointsOnlyUpdatesBrought) {
+  LocalMap map(LocalMapOptions{}, Camera());
+  FrameFeatures f;
+  f.keypoints.emplace_back(100.0f, 100.0f, 31.f);
+  f.points_camera.emplace_back(0, 0, 2.0);
+  f.has_depth.push_back(true);
+  f.descriptors = cv::Mat(1, 32, CV_8U, cv::Scalar(7));
+  std::vector<int64_t> own;
+  map.AddKeyframe(0, f, Eigen::Isometry3d::Identity(), {}, &own);
+  const auto update_of = [](std::vector<int64_t> ids, bool refresh) {
+    LocalMapUpdate u;
+    u.ids = ids;
+    for (size_t i = 0; i < ids.size(); ++i) {
+      u.positions_world.emplace_back(static_cast<double>(i), 0, 3);
+      u.octaves.push_back(0);
+    }
+    u.descriptors = cv::Mat(static_cast<int>(ids.size()), 32, CV_8U,
+                            cv::Scalar(static_cast<double>(ids.front() % 200)));
+    u.refresh = refresh;
+    return u;
+  };
+  const auto ids = [&] {
+    std::set<int64_t> out;
+    for (size_t i = 0; i < map.size(); ++i) out.insert(map.point(i).id);
+    return out;
+  };
+  map.Merge(update_of({100, 101}, false), Eigen::Isometry3d::Identity(), 0);
+  map.Merge(update_of({102}, false), Eigen::Isometry3d::Identity(), 0);  // adds
+  EXPECT_EQ(ids(), (std::set<int64_t>{own[0], 100, 101, 102}));
+  map.Merge(update_of({101, 103}, true), Eigen::Isometry3d::Identity(), 0);
+  EXPECT_EQ(ids(), (std::set<int64_t>{own[0], 101, 103}));
+  ASSERT_EQ(map.descriptors().rows, 3);
+  for (size_t i = 0; i < map.size(); ++i) {
+    // Each point's descriptor row followed it through the compaction.
+    const int expected = map.point(i).id == own[0] ? 7 : (map.point(i).id == 103 ? 101 : 100);
+    EXPECT_EQ(map.descriptors().at<uint8_t>(static_cast<int>(i), 0), expected) << i;
+  }
 }
 
 }  // namespace

@@ -89,6 +89,34 @@ TEST(MapPointsTest, RestoredPointsAreObservedByLaterSessionsUnderForeignIds) {
   EXPECT_EQ(visited, 2);
 }
 
+// A map revisited every day: each session is told of the map's points under foreign names,
+// which the map does not store per session (it would grow with every visit). A foreign name
+// still finds its point after that point was fused into another.
+TEST(MapPointsTest, ForeignNamesCostNothingAndFollowFusion) {
+  MapPoints points;
+  const FrameFeatures f = Features(4);
+  points.AddKeyframe(1, 0, 0, f, At(0), {0, 1, 2, 3});
+  const int64_t a = points.PointsOf(0)[0], b = points.PointsOf(0)[1];
+  const size_t held = points.HeldBytes();
+  for (int64_t session = 10; session < 110; ++session) {
+    EXPECT_EQ(points.TrackerIdFor(session, a), MapPoints::kForeignTrackerIdBase + a);
+  }
+  EXPECT_EQ(points.HeldBytes(), held);
+  // a is fused into b: session 10's keyframe naming a by its foreign name observes b.
+  ASSERT_TRUE(points.Fuse(b, a));
+  EXPECT_EQ(points.AddKeyframe(10, 1, 0, f, At(0),
+                               {MapPoints::kForeignTrackerIdBase + a, -1, -1,
+                                MapPoints::kForeignTrackerIdBase + 999}),
+            2);
+  ASSERT_EQ(points.PointsOf(1).size(), 2u);
+  EXPECT_EQ(points.PointsOf(1)[0], b);
+  // A name no point answers to (e.g. of a culled point) starts one, as any unknown name does.
+  const MapPointState* started = points.Find(points.PointsOf(1)[1]);
+  ASSERT_NE(started, nullptr);
+  EXPECT_EQ(started->session_id, 10);
+  EXPECT_EQ(points.size(), 4u);
+}
+
 TEST(MapPointsTest, CovisibilityAndTheLocalWindow) {
   MapPoints points;
   const FrameFeatures f = Features(6);
