@@ -243,7 +243,8 @@ int main(int argc, char** argv) {
   args.AddFlag("keyframe-skip-mapped", "on|off",
                "RGBD: a frame within the keyframe motion threshold of a keyframe the map already "
                "holds (a revisit, any session's) makes no keyframe, so a map revisited every day "
-               "stops growing (default on; off: revisits add keyframes as a first visit does)");
+               "grows less (default off: experimental, a revisit at 30 Hz sometimes loses the "
+               "track for a few frames with it on)");
   args.AddFlag("vocabulary", "FILE|none",
                "place-recognition vocabulary for loop closure (default: the bundled "
                "models/orb_vocab.bin; none: loops by pose proximity only)");

@@ -72,7 +72,10 @@ bool KeyframePolicy::Decide(const KeyframeCandidate& candidate) {
       if (!candidate.has_depth) break;
       if (!reference_inliers_) reference_inliers_ = candidate.num_inliers;
       const bool weak = candidate.num_inliers < options_.min_inlier_fraction * *reference_inliers_;
-      keyframe = (weak || MovedFarEnough(candidate.T_world_camera)) && !MapHoldsTheView(candidate);
+      // Weak tracking makes a keyframe even where the map holds the view: the tracker's local
+      // map has run out there (a refresh not yet arrived, the scene changed), and waiting for
+      // the back end could lose the frame.
+      keyframe = weak || (MovedFarEnough(candidate.T_world_camera) && !MapHoldsTheView(candidate));
       break;
     }
   }

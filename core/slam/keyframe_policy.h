@@ -8,10 +8,11 @@
 //    tracked visually, when its inliers fall below min_inlier_fraction of those of the first
 //    frame tracked against the current reference (the view is leaving the reference);
 //  - but a visually tracked frame within min_motion of a keyframe the map already holds
-//    (any session's, other than the reference: a revisit) does not become one
+//    (any session's, other than the reference: a revisit) does not become one by motion
 //    (skip_mapped_views): the map has that view, and the back end keeps the tracker's local
-//    map on the mapped keyframes the camera passes. Revisiting a mapped place adds keyframes
-//    only where the map lacks a view, so a map visited every day stops growing.
+//    map on the mapped keyframes the camera passes (weak inliers still make one). Revisiting a
+//    mapped place adds keyframes only where the map lacks a view, so a map visited every day stops
+//    growing.
 // Front ends ask through KeyframeDecider (core/odometry/keyframe_decider.h).
 #pragma once
 
@@ -29,9 +30,11 @@ struct KeyframePolicyOptions {
   // Visual tracking: a keyframe when the inliers fall below this fraction of the inliers of
   // the first frame tracked against the reference; 0 disables the test.
   double min_inlier_fraction = 0.4;
-  // Visual tracking: no keyframe when the frame is within min_motion of a keyframe the map
-  // holds (KeyframeCandidate::mapped_keyframes) other than the reference.
-  bool skip_mapped_views = true;
+  // Visual tracking: motion makes no keyframe when the frame is within min_motion of a
+  // keyframe the map holds (KeyframeCandidate::mapped_keyframes) other than the reference.
+  // Off by default: at a camera's rate a revisit sometimes loses the track for a few frames
+  // with it on (docs/architecture.md).
+  bool skip_mapped_views = false;
   Status Validate() const;
 };
 

@@ -144,7 +144,7 @@ void WriteReorderedSequence(const std::string& source, const std::string& out,
 // Multi-session map across a restart: the second session starts half a lap away, in a frame of
 // its own; the restarted server reloads the first session's keyframes, place recognition
 // finds them, and the second session's stored trajectory ends up in the first one's frame
-// (compared without any alignment), with far fewer keyframes than a first visit makes.
+// (compared without any alignment).
 TEST(RgbdSlamE2ETest, SecondSessionAfterRestartJoinsTheMapFrame) {
   testing::TempDir dir;
   const std::string lap = dir.File("lap");
@@ -201,10 +201,6 @@ TEST(RgbdSlamE2ETest, SecondSessionAfterRestartJoinsTheMapFrame) {
   // Frames before the first loop closure are stored in the session's own frame unless the back
   // end re-anchored them: every stored pose must be in the map frame.
   EXPECT_LT(worst, 0.05);
-  // A revisit makes keyframes only where the map lacks a verified view (keyframe_policy.h): a
-  // first visit's rate would give ~0.7 x the first session's (measured 15-16 of 59; 41 with
-  // semmapd --keyframe-skip-mapped off).
-  EXPECT_LT(second_keyframes, 0.6 * 0.7 * first_keyframes);
 }
 
 TEST(RgbdSlamE2ETest, TeddyIsTrackedOnEveryFrame) {

@@ -126,10 +126,12 @@ TEST(KeyframePolicyTest, CorrectionsMoveTheReferenceWithTheMap) {
 }
 
 // A revisit: the map already holds keyframes along the way (another session's, at x = 1.0,
-// 1.1, ...). Frames near one of them make none, by motion or by weak inliers; past the mapped
-// ones the rule is a first visit's again.
+// 1.1, ...). Frames near one of them make none by motion (weak inliers still make one); past
+// the mapped ones the rule is a first visit's again.
 TEST(KeyframePolicyTest, ViewsTheMapAlreadyHoldsMakeNoKeyframe) {
-  KeyframePolicy policy(Options(0.1, 0.5));
+  KeyframePolicyOptions on = Options(0.1, 0.5);
+  on.skip_mapped_views = true;
+  KeyframePolicy policy(on);
   std::vector<Eigen::Isometry3d> mapped;
   for (int i = 0; i <= 5; ++i) mapped.push_back(Pose(1.0 + 0.1 * i, 0));
   const auto revisit = [&](double x, int inliers) {
@@ -142,36 +144,37 @@ TEST(KeyframePolicyTest, ViewsTheMapAlreadyHoldsMakeNoKeyframe) {
   for (double x = 1.1; x < 1.5; x += 0.05) {
     EXPECT_FALSE(policy.Decide(revisit(x, 300))) << x;  // moved on, but mapped
   }
-  EXPECT_FALSE(policy.Decide(revisit(1.5, 50)));   // weak, but mapped
-  EXPECT_TRUE(policy.Decide(revisit(1.62, 300)));  // beyond the last mapped keyframe (1.5)
+  EXPECT_TRUE(policy.Decide(revisit(1.5, 50)));     // weak: a keyframe even where mapped
+  EXPECT_FALSE(policy.Decide(revisit(1.55, 300)));  // 0.05 from 1.5 (the new reference)
+  EXPECT_TRUE(policy.Decide(revisit(1.66, 300)));   // beyond the last mapped keyframe (1.5)
   EXPECT_FALSE(policy.Decide(revisit(1.7, 300)));
-  EXPECT_TRUE(policy.Decide(revisit(1.73, 300)));  // 0.11 from 1.62, 0.23 from 1.5
+  EXPECT_TRUE(policy.Decide(revisit(1.77, 300)));  // 0.11 from 1.66, 0.27 from 1.5
 
   // Turned away from the mapped view: not the same view.
-  KeyframePolicy turning(Options(0.1, 0.5));
+  KeyframePolicy turning(on);
   EXPECT_TRUE(turning.Decide(Start(Pose(1.0, 0))));
   KeyframeCandidate turned = Tracked(Pose(1.1, 0.5), 300);
   turned.mapped_keyframes = &mapped;
   EXPECT_TRUE(turning.Decide(turned));
 
-  // Off: a first visit's rule everywhere.
-  KeyframePolicyOptions off = Options(0.1, 0.5);
-  off.skip_mapped_views = false;
-  KeyframePolicy adding(off);
+  // Off (the default): a first visit's rule everywhere.
+  KeyframePolicy adding(Options(0.1, 0.5));
   EXPECT_TRUE(adding.Decide(Start(Pose(0.97, 0))));
   EXPECT_TRUE(adding.Decide(revisit(1.1, 300)));
 }
 
-// The reference keyframe is among the mapped ones too (the back end's refined copy): a frame
-// whose inliers fall while it is still near the reference is a keyframe, as without a map.
+// The reference keyframe is among the mapped ones too (the back end's refined copy, 2 mm off):
+// it does not make the frames around it count as mapped views.
 TEST(KeyframePolicyTest, TheReferenceItselfDoesNotCountAsMapped) {
-  KeyframePolicy policy(Options(0.1, 0.5));
-  const std::vector<Eigen::Isometry3d> mapped = {Pose(0.002, 0)};  // refined by BA
+  KeyframePolicyOptions on = Options(0.1, 0.5);
+  on.skip_mapped_views = true;
+  KeyframePolicy policy(on);
+  const std::vector<Eigen::Isometry3d> mapped = {Pose(0.002, 0)};
   EXPECT_TRUE(policy.Decide(Start(Pose(0, 0))));
-  KeyframeCandidate c = Tracked(Pose(0.01, 0), 300);
+  KeyframeCandidate c = Tracked(Pose(0.05, 0), 300);
   c.mapped_keyframes = &mapped;
   EXPECT_FALSE(policy.Decide(c));
-  c = Tracked(Pose(0.03, 0), 100);  // weak
+  c = Tracked(Pose(0.101, 0), 300);  // moved 0.101; the refined copy is 0.099 away
   c.mapped_keyframes = &mapped;
   EXPECT_TRUE(policy.Decide(c));
 }
