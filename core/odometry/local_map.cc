@@ -7,6 +7,33 @@
 #include <unordered_set>
 
 namespace semmap {
+namespace {
+
+// Keeps the points `keep` accepts, in order, with their descriptor rows; the descriptor matrix
+// (`cols` x `type`) gets `extra_rows` more rows after them for points the caller appends.
+// Returns the number kept.
+template <typename Keep>
+size_t KeepPoints(std::vector<MapPoint>* points, cv::Mat* descriptors, const Keep& keep,
+                  size_t extra_rows, int cols, int type) {
+  std::vector<MapPoint> kept;
+  std::vector<int> kept_rows;
+  kept.reserve(points->size() + extra_rows);
+  for (size_t i = 0; i < points->size(); ++i) {
+    if (!keep((*points)[i])) continue;
+    kept.push_back((*points)[i]);
+    kept_rows.push_back(static_cast<int>(i));
+  }
+  if (kept.size() == points->size() && extra_rows == 0) return kept.size();
+  cv::Mat compacted(static_cast<int>(kept.size() + extra_rows), cols, type);
+  for (size_t r = 0; r < kept_rows.size(); ++r) {
+    descriptors->row(kept_rows[r]).copyTo(compacted.row(static_cast<int>(r)));
+  }
+  *points = std::move(kept);
+  *descriptors = compacted;
+  return points->size();
+}
+
+}  // namespace
 
 Status LocalMapOptions::Validate() const {
   if (window_keyframes < 1 || window_keyframes > 100) {
@@ -69,23 +96,16 @@ void LocalMap::AddKeyframe(int keyframe_id, const FrameFeatures& f, const Eigen:
     }
   }
   // Keep the reliable points of the window, then append the new ones.
-  std::vector<MapPoint> kept;
-  std::vector<int> kept_rows;
-  kept.reserve(points_.size() + new_keypoints.size());
-  for (size_t i = 0; i < points_.size(); ++i) {
-    const MapPoint& mp = points_[i];
-    if (mp.retired || mp.last_keyframe <= keyframe_id - options_.window_keyframes) continue;
-    if (mp.visible >= options_.min_visible && mp.found < options_.min_found_ratio * mp.visible) {
-      continue;
-    }
-    kept.push_back(mp);
-    kept_rows.push_back(static_cast<int>(i));
-  }
-  cv::Mat descriptors(static_cast<int>(kept.size() + new_keypoints.size()), f.descriptors.cols,
-                      f.descriptors.type());
-  for (size_t r = 0; r < kept_rows.size(); ++r) {
-    descriptors_.row(kept_rows[r]).copyTo(descriptors.row(static_cast<int>(r)));
-  }
+  const size_t first_new = KeepPoints(
+      &points_, &descriptors_,
+      [&](const MapPoint& mp) {
+        if (mp.retired || mp.last_keyframe <= keyframe_id - options_.window_keyframes) {
+          return false;
+        }
+        return mp.visible < options_.min_visible ||
+               mp.found >= options_.min_found_ratio * mp.visible;
+      },
+      new_keypoints.size(), f.descriptors.cols, f.descriptors.type());
   for (size_t n = 0; n < new_keypoints.size(); ++n) {
     const size_t k = static_cast<size_t>(new_keypoints[n]);
     MapPoint mp;
@@ -96,12 +116,10 @@ void LocalMap::AddKeyframe(int keyframe_id, const FrameFeatures& f, const Eigen:
     mp.octave = f.keypoints[k].octave;
     Fuse(&mp, T_wc * f.points_camera[k],
          ObservationInformation(f.points_camera[k], f.keypoints[k].octave, R));
-    kept.push_back(mp);
+    points_.push_back(mp);
     f.descriptors.row(static_cast<int>(k))
-        .copyTo(descriptors.row(static_cast<int>(kept_rows.size() + n)));
+        .copyTo(descriptors_.row(static_cast<int>(first_new + n)));
   }
-  points_ = std::move(kept);
-  descriptors_ = descriptors;
 }
 
 void LocalMap::Merge(const LocalMapUpdate& update, const Eigen::Isometry3d& T_new_update,
@@ -162,21 +180,10 @@ void LocalMap::Merge(const LocalMapUpdate& update, const Eigen::Isometry3d& T_ne
 
 void LocalMap::DropUpdateOnlyPointsNotIn(const LocalMapUpdate& update) {
   const std::unordered_set<int64_t> in_update(update.ids.begin(), update.ids.end());
-  std::vector<MapPoint> kept;
-  std::vector<int> kept_rows;
-  kept.reserve(points_.size());
-  for (size_t i = 0; i < points_.size(); ++i) {
-    if (!points_[i].own && in_update.count(points_[i].id) == 0) continue;
-    kept.push_back(points_[i]);
-    kept_rows.push_back(static_cast<int>(i));
-  }
-  if (kept.size() == points_.size()) return;
-  cv::Mat descriptors(static_cast<int>(kept.size()), descriptors_.cols, descriptors_.type());
-  for (size_t r = 0; r < kept_rows.size(); ++r) {
-    descriptors_.row(kept_rows[r]).copyTo(descriptors.row(static_cast<int>(r)));
-  }
-  points_ = std::move(kept);
-  descriptors_ = descriptors;
+  KeepPoints(
+      &points_, &descriptors_,
+      [&](const MapPoint& mp) { return mp.own || in_update.count(mp.id) != 0; },
+      /*extra_rows=*/0, descriptors_.cols, descriptors_.type());
 }
 
 void LocalMap::CountTracked(const std::vector<int>& visible, const std::vector<int>& found,

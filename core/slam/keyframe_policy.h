@@ -11,8 +11,8 @@
 //    (any session's, other than the reference: a revisit) does not become one by motion
 //    (skip_mapped_views): the map has that view, and the back end keeps the tracker's local
 //    map on the mapped keyframes the camera passes (weak inliers still make one). Revisiting a
-//    mapped place adds keyframes only where the map lacks a view, so a map visited every day stops
-//    growing.
+//    mapped place adds keyframes mainly where the map lacks a verified view, so a map visited
+//    every day grows far less (not zero: see docs/architecture.md).
 // Front ends ask through KeyframeDecider (core/odometry/keyframe_decider.h).
 #pragma once
 

@@ -56,8 +56,9 @@ struct SlamBackendOptions {
   // Before each local BA: the points of the keyframes around the new one (those of the
   // tracking map below) are searched in it by projection, joined or fused (needs local_ba).
   PointFusionOptions point_fusion;
-  // The points sent back to a session's tracker after each local BA: those observed by the
-  // newest keyframe's most covisible keyframes and by its keyframes near the newest one's
+  // The points sent back to a session's tracker after each local BA (and each accepted loop,
+  // and as a refresh when a revisiting camera passes mapped keyframes: FollowCamera): those
+  // observed by the centre keyframe's most covisible keyframes and by the keyframes near its
   // pose (a revisited place), at most tracking_map_max_points. 0 keyframes: nothing is sent.
   int tracking_map_covisible_keyframes = 15;
   int tracking_map_near_keyframes = 10;
