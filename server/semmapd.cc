@@ -94,6 +94,7 @@ semmap::Status ParseOptions(const semmap::ArgParser& args, semmap::ServerOptions
   SEMMAP_ASSIGN_OR_RETURN(
       options->ingest.keyframes.skip_mapped_views,
       args.GetOnOff("keyframe-skip-mapped", options->ingest.keyframes.skip_mapped_views));
+  options->ingest.slam.follow_revisits = options->ingest.keyframes.skip_mapped_views;
   const std::string vocabulary = args.Get("vocabulary", "");
   if (vocabulary == "none") {
     options->vocabulary_path.clear();
@@ -242,9 +243,10 @@ int main(int argc, char** argv) {
                "rotation weight in the motion norm (default 0.5)");
   args.AddFlag("keyframe-skip-mapped", "on|off",
                "RGBD: a frame within the keyframe motion threshold of a keyframe the map already "
-               "holds (a revisit, any session's) makes no keyframe, so a map revisited every day "
-               "grows less (default off: experimental, a revisit at 30 Hz sometimes loses the "
-               "track for a few frames with it on)");
+               "holds (loop-verified, any session's) makes no keyframe, so a map revisited every "
+               "day grows less; the back end keeps the tracker's map and the frames' anchors on "
+               "the mapped keyframes it passes (default on; off: a keyframe every motion "
+               "threshold, as on a first visit)");
   args.AddFlag("vocabulary", "FILE|none",
                "place-recognition vocabulary for loop closure (default: the bundled "
                "models/orb_vocab.bin; none: loops by pose proximity only)");

@@ -39,6 +39,10 @@ Status RgbdTrackerOptions::Validate() const {
   if (!std::isfinite(map_refine_radius_px) || map_refine_radius_px < 0) {
     return InvalidArgumentError("tracker map_refine_radius_px must be >= 0");
   }
+  if (!std::isfinite(map_retry_radius_scale) || map_retry_radius_scale < 1 ||
+      map_retry_radius_scale > 10) {
+    return InvalidArgumentError("tracker map_retry_radius_scale must be in [1, 10]");
+  }
   if (min_guided_inliers < motion.min_inliers) {
     return InvalidArgumentError("tracker min_guided_inliers must be >= motion.min_inliers");
   }
@@ -146,12 +150,13 @@ void RgbdTracker::ProjectMap(const Eigen::Isometry3d& T_world_camera,
 
 StatusOr<std::optional<RgbdTracker::MapPass>> RgbdTracker::MatchAndEstimate(
     const FrameFeatures& current, const std::vector<std::optional<cv::Point2f>>& predicted,
-    const Eigen::Isometry3d& T_world_guess, double* match_ms, double* pose_ms) const {
+    const Eigen::Isometry3d& T_world_guess, const FeatureMatcherOptions& matcher, double* match_ms,
+    double* pose_ms) const {
   Clock::time_point start = Clock::now();
   MapPass pass;
-  SEMMAP_ASSIGN_OR_RETURN(pass.matches,
-                          MatchGuided(map_.descriptors(), predicted, current.descriptors,
-                                      current.keypoints, options_.matcher));
+  SEMMAP_ASSIGN_OR_RETURN(
+      pass.matches,
+      MatchGuided(map_.descriptors(), predicted, current.descriptors, current.keypoints, matcher));
   *match_ms += MillisecondsSince(start);
   if (static_cast<int>(pass.matches.size()) < options_.motion.min_matches) {
     return std::optional<MapPass>();
@@ -197,9 +202,11 @@ std::vector<RgbdObservation> RgbdTracker::ObservationsOf(
 }
 
 StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
-    const FrameFeatures& current, const Eigen::Isometry3d& T_world_guess, double* match_ms,
-    double* pose_ms) const {
+    const FrameFeatures& current, const Eigen::Isometry3d& T_world_guess, double radius_px,
+    double* match_ms, double* pose_ms) const {
   if (map_.size() == 0 || current.size() == 0) return std::optional<Solution>();
+  FeatureMatcherOptions search = options_.matcher;
+  search.guided_radius_px = radius_px;
   Solution sol;
   std::vector<std::optional<cv::Point2f>> predicted;
   ProjectMap(T_world_guess, &predicted, &sol.visible);
@@ -221,15 +228,15 @@ StatusOr<std::optional<RgbdTracker::Solution>> RgbdTracker::TrackLocalMap(
       ++num_recent;
     }
     if (num_recent >= options_.min_guided_inliers) {
-      SEMMAP_ASSIGN_OR_RETURN(pass,
-                              MatchAndEstimate(current, recent, T_world_guess, match_ms, pose_ms));
+      SEMMAP_ASSIGN_OR_RETURN(
+          pass, MatchAndEstimate(current, recent, T_world_guess, search, match_ms, pose_ms));
       whole_map = false;
       if (pass && pass->refined.num_inliers < options_.motion.min_inliers) pass.reset();
     }
   }
   if (!pass) {
-    SEMMAP_ASSIGN_OR_RETURN(pass,
-                            MatchAndEstimate(current, predicted, T_world_guess, match_ms, pose_ms));
+    SEMMAP_ASSIGN_OR_RETURN(
+        pass, MatchAndEstimate(current, predicted, T_world_guess, search, match_ms, pose_ms));
     whole_map = true;
   }
   if (!pass) return std::optional<Solution>();
@@ -392,9 +399,27 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
   };
   const Eigen::Isometry3d T_world_predicted = *T_world_last_ * T_last_velocity_;
 
-  // 1. The local map around the prediction.
-  SEMMAP_ASSIGN_OR_RETURN(std::optional<Solution> best,
-                          TrackLocalMap(current, T_world_predicted, &match_ms, &pose_ms));
+  // 1. The local map around the prediction; when that finds too little, around the last pose,
+  // then with a wider search (RgbdTrackerOptions::map_retries).
+  const double radius_px = options_.matcher.guided_radius_px;
+  SEMMAP_ASSIGN_OR_RETURN(
+      std::optional<Solution> best,
+      TrackLocalMap(current, T_world_predicted, radius_px, &match_ms, &pose_ms));
+  const auto weak = [&] {
+    return options_.map_retries && (!best || best->num_inliers < options_.min_guided_inliers);
+  };
+  const auto retry = [&](const Eigen::Isometry3d& T_world_guess, double radius) -> Status {
+    SEMMAP_ASSIGN_OR_RETURN(std::optional<Solution> again,
+                            TrackLocalMap(current, T_world_guess, radius, &match_ms, &pose_ms));
+    if (again && (!best || again->num_inliers > best->num_inliers)) best = std::move(again);
+    return OkStatus();
+  };
+  if (weak() && !T_last_velocity_.isApprox(Eigen::Isometry3d::Identity())) {
+    SEMMAP_RETURN_IF_ERROR(retry(*T_world_last_, radius_px));
+  }
+  if (weak() && options_.map_retry_radius_scale > 1) {  // 1: the same search again
+    SEMMAP_RETURN_IF_ERROR(retry(T_world_predicted, radius_px * options_.map_retry_radius_scale));
+  }
   result.used_guided_matching = best.has_value();
   int last_matches = best ? best->num_matches : 0;
   TrackingState state = TrackingState::kTracking;
@@ -433,7 +458,7 @@ StatusOr<TrackingResult> RgbdTracker::Track(const cv::Mat& image, const DecodedD
       Solution from_keyframe = from_attempt(*used, attempt);
       SEMMAP_ASSIGN_OR_RETURN(
           std::optional<Solution> again,
-          TrackLocalMap(current, from_keyframe.T_world_current, &match_ms, &pose_ms));
+          TrackLocalMap(current, from_keyframe.T_world_current, radius_px, &match_ms, &pose_ms));
       std::optional<Solution> candidate =
           again && again->num_inliers >= from_keyframe.num_inliers / 2 ? std::move(again)
                                                                        : std::move(from_keyframe);

@@ -47,6 +47,14 @@ struct RgbdTrackerOptions {
   bool search_last_frame_points_first = true;
   // Guided matching is trusted when it finds at least this many inliers; else full matching.
   int min_guided_inliers = 80;
+  // When the local map at the constant-velocity prediction gives fewer than min_guided_inliers,
+  // before the reference keyframe is tried: the map around the last pose (the camera stopped,
+  // or a frame repeated), then around the prediction with matcher.guided_radius_px times
+  // map_retry_radius_scale (it sped up or turned). On a revisit that makes no keyframes
+  // (KeyframePolicyOptions::skip_mapped_views) the reference may be metres behind: the map is
+  // the only view at hand.
+  bool map_retries = true;
+  double map_retry_radius_scale = 2.0;
   // Keyframes kept (features and poses) for relocalisation, the reference included.
   int relocalisation_keyframes = 5;
   // After this many consecutive lost frames with depth (frames without depth neither count nor
@@ -158,11 +166,13 @@ class RgbdTracker {
         keyframes_decider_(std::move(keyframes)),
         map_(options_.local_map, options_.camera) {}
 
-  // Projection matching against the local map around T_world_guess, PnP-RANSAC and the RGB-D
-  // refinement (then a second, tighter projection). nullopt: too little support.
+  // Projection matching against the local map around T_world_guess within `radius_px`,
+  // PnP-RANSAC and the RGB-D refinement (then a second, tighter projection). nullopt: too little
+  // support.
   StatusOr<std::optional<Solution>> TrackLocalMap(const FrameFeatures& current,
                                                   const Eigen::Isometry3d& T_world_guess,
-                                                  double* match_ms, double* pose_ms) const;
+                                                  double radius_px, double* match_ms,
+                                                  double* pose_ms) const;
   // One matching pass against the map points `predicted` holds (nullopt: left out), then
   // PnP-RANSAC and the RGB-D refinement. nullopt: too little support.
   struct MapPass {
@@ -171,7 +181,8 @@ class RgbdTracker {
   };
   StatusOr<std::optional<MapPass>> MatchAndEstimate(
       const FrameFeatures& current, const std::vector<std::optional<cv::Point2f>>& predicted,
-      const Eigen::Isometry3d& T_world_guess, double* match_ms, double* pose_ms) const;
+      const Eigen::Isometry3d& T_world_guess, const FeatureMatcherOptions& matcher,
+      double* match_ms, double* pose_ms) const;
   std::vector<RgbdObservation> ObservationsOf(const FrameFeatures& current,
                                               const std::vector<cv::DMatch>& matches) const;
   // Map points predicted in view of T_world_camera (indices) with their predicted pixels.

@@ -32,9 +32,8 @@ struct KeyframePolicyOptions {
   double min_inlier_fraction = 0.4;
   // Visual tracking: motion makes no keyframe when the frame is within min_motion of a
   // keyframe the map holds (KeyframeCandidate::mapped_keyframes) other than the reference.
-  // Off by default: at a camera's rate a revisit sometimes loses the track for a few frames
-  // with it on (docs/architecture.md).
-  bool skip_mapped_views = false;
+  // The back end's half is SlamBackendOptions::follow_revisits (semmapd sets both).
+  bool skip_mapped_views = true;
   Status Validate() const;
 };
 

@@ -420,6 +420,10 @@ void SlamBackend::HandleFrame(const FrameAnchorEvent& event) {
   if (Moved(T, event.T_world_frame)) {
     pending_.pose_updates.push_back({event.session_id, event.seq, T});
   }
+  if (!options_.follow_revisits) {
+    AddAnchor(event.session_id, added);
+    return;
+  }
   const std::vector<int> near = graph_.Near(
       T, options_.tracking_map_near_radius_m, options_.tracking_map_near_angle_deg * kPi / 180.0,
       [&](int k) { return !graph_.SameComponent(k, *anchor); });
@@ -528,7 +532,7 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
       std::deque<int>& remembered = loop_candidates_[loop->query_session_id];
       remembered.push_back(*candidate);
       if (remembered.size() > kLoopsRemembered) remembered.pop_front();
-      if (options_.local_ba.enabled && !event.point_ids.empty()) {
+      if (options_.follow_revisits && options_.local_ba.enabled && !event.point_ids.empty()) {
         PublishTrackingMap(index, loop->query_session_id, /*refresh=*/false);
       }
     }
@@ -822,7 +826,8 @@ void SlamBackend::PublishTrackingMap(int index, int64_t session_id, bool refresh
   if (update->ids.empty()) return;
   for (int k : keyframes) {
     const GraphKeyframe& node = graph_.node(k);
-    if (!node.culled && graph_.SameComponent(k, index) && MappedFor(session_id, k)) {
+    if (options_.follow_revisits && !node.culled && graph_.SameComponent(k, index) &&
+        MappedFor(session_id, k)) {
       update->keyframe_poses_world.push_back(node.T_world_keyframe);
     }
   }

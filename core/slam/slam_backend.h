@@ -56,8 +56,9 @@ struct SlamBackendOptions {
   // Before each local BA: the points of the keyframes around the new one (those of the
   // tracking map below) are searched in it by projection, joined or fused (needs local_ba).
   PointFusionOptions point_fusion;
-  // The points sent back to a session's tracker after each local BA (and each accepted loop,
-  // and as a refresh when a revisiting camera passes mapped keyframes: FollowCamera): those
+  // The points sent back to a session's tracker after each local BA (and, with follow_revisits,
+  // after each accepted loop and as a refresh as a revisiting camera passes mapped keyframes):
+  // those
   // observed by the centre keyframe's most covisible keyframes and by the keyframes near its
   // pose (a revisited place), at most tracking_map_max_points. 0 keyframes: nothing is sent.
   int tracking_map_covisible_keyframes = 15;
@@ -65,6 +66,12 @@ struct SlamBackendOptions {
   double tracking_map_near_radius_m = 1.0;
   double tracking_map_near_angle_deg = 45;
   int tracking_map_max_points = 4000;
+  // The back end's half of the revisit keyframe rule (KeyframePolicyOptions::skip_mapped_views;
+  // semmapd's --keyframe-skip-mapped sets both): a frame far from its session's latest keyframe
+  // follows the nearest loop-verified mapped keyframe (its anchor), the tracker gets the points
+  // around that keyframe as the camera passes it (a refresh: FollowCamera), and the map at once
+  // after each accepted loop; each tracking map names its mapped keyframes' poses.
+  bool follow_revisits = true;
   size_t queue_capacity = 512;  // events (keyframes and frame anchors) waiting for the worker
   // Keyframe features kept in memory (keyframe_feature_memory.h): beyond this the least recently
   // used are released and read back from the store when needed. 32 MiB holds ~400 keyframes of

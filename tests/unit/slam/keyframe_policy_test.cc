@@ -129,8 +129,8 @@ TEST(KeyframePolicyTest, CorrectionsMoveTheReferenceWithTheMap) {
 // 1.1, ...). Frames near one of them make none by motion (weak inliers still make one); past
 // the mapped ones the rule is a first visit's again.
 TEST(KeyframePolicyTest, ViewsTheMapAlreadyHoldsMakeNoKeyframe) {
-  KeyframePolicyOptions on = Options(0.1, 0.5);
-  on.skip_mapped_views = true;
+  const KeyframePolicyOptions on = Options(0.1, 0.5);  // skip_mapped_views by default
+  ASSERT_TRUE(on.skip_mapped_views);
   KeyframePolicy policy(on);
   std::vector<Eigen::Isometry3d> mapped;
   for (int i = 0; i <= 5; ++i) mapped.push_back(Pose(1.0 + 0.1 * i, 0));
@@ -157,8 +157,10 @@ TEST(KeyframePolicyTest, ViewsTheMapAlreadyHoldsMakeNoKeyframe) {
   turned.mapped_keyframes = &mapped;
   EXPECT_TRUE(turning.Decide(turned));
 
-  // Off (the default): a first visit's rule everywhere.
-  KeyframePolicy adding(Options(0.1, 0.5));
+  // Off: a first visit's rule everywhere.
+  KeyframePolicyOptions off = on;
+  off.skip_mapped_views = false;
+  KeyframePolicy adding(off);
   EXPECT_TRUE(adding.Decide(Start(Pose(0.97, 0))));
   EXPECT_TRUE(adding.Decide(revisit(1.1, 300)));
 }
@@ -166,9 +168,7 @@ TEST(KeyframePolicyTest, ViewsTheMapAlreadyHoldsMakeNoKeyframe) {
 // The reference keyframe is among the mapped ones too (the back end's refined copy, 2 mm off):
 // it does not make the frames around it count as mapped views.
 TEST(KeyframePolicyTest, TheReferenceItselfDoesNotCountAsMapped) {
-  KeyframePolicyOptions on = Options(0.1, 0.5);
-  on.skip_mapped_views = true;
-  KeyframePolicy policy(on);
+  KeyframePolicy policy(Options(0.1, 0.5));
   const std::vector<Eigen::Isometry3d> mapped = {Pose(0.002, 0)};
   EXPECT_TRUE(policy.Decide(Start(Pose(0, 0))));
   KeyframeCandidate c = Tracked(Pose(0.05, 0), 300);
