@@ -7,7 +7,10 @@
 // perceptual alias (a repeated poster) that the candidate's neighbours see as well: the
 // ratio is then the same as for a true revisit; only the lower absolute N_c differs.
 // xi ~ 1 needs neighbours that overlap the candidate closely (about one default keyframe
-// step: 0.1 m / 5 degrees); at twice that spacing true revisits reach xi 1.4-2.
+// step: 0.1 m / 5 degrees); at twice that spacing true revisits reach xi 1.4-2. Which
+// keyframes are the neighbours is the caller's choice (SlamBackend: the candidate's session
+// neighbours and other sessions' keyframes at the same view, SlamBackendOptions::
+// xi_view_neighbours).
 #pragma once
 
 #include <Eigen/Core>

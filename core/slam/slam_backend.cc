@@ -45,6 +45,9 @@ Status SlamBackendOptions::Validate() const {
     return InvalidArgumentError("slam global score thresholds must be in [0, 1]");
   }
   if (xi_neighbours < 1) return InvalidArgumentError("slam xi_neighbours must be >= 1");
+  if (xi_view_neighbours < 0 || !(xi_view_radius_m >= 0) || !(xi_view_angle_deg >= 0)) {
+    return InvalidArgumentError("slam xi_view_neighbours, radius and angle must be >= 0");
+  }
   if (!(edge_sigma_floor_m >= 0) || !(edge_sigma_floor_rad >= 0)) {
     return InvalidArgumentError("slam edge sigma floors must be >= 0");
   }
@@ -594,13 +597,24 @@ std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query) {
     }
   }
   for (const auto& [candidate, global] : candidates) {
+    const GraphKeyframe& c = graph_.node(candidate);
     std::vector<int> wanted{candidate};
     for (int n : graph_.SessionNeighbours(candidate, options_.xi_neighbours)) {
       if (!skip(n)) wanted.push_back(n);
     }
+    // The same view as other sessions mapped it (SlamBackendOptions::xi_view_neighbours).
+    const std::vector<int> same_view =
+        graph_.Near(c.T_world_keyframe, options_.xi_view_radius_m,
+                    options_.xi_view_angle_deg * kPi / 180.0, [&](int i) {
+                      return skip(i) || graph_.node(i).session_id == c.session_id ||
+                             !graph_.SameComponent(i, candidate);
+                    });
+    for (size_t i = 0; i < same_view.size() && static_cast<int>(i) < options_.xi_view_neighbours;
+         ++i) {
+      wanted.push_back(same_view[i]);
+    }
     const std::vector<int> resident = WithFeatures(wanted);
     if (resident.empty() || resident.front() != candidate) continue;
-    const GraphKeyframe& c = graph_.node(candidate);
     std::vector<const FrameFeatures*> neighbours;
     for (size_t i = 1; i < resident.size(); ++i) {
       neighbours.push_back(graph_.node(resident[i]).features.get());

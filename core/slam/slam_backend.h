@@ -90,6 +90,15 @@ struct SlamBackendOptions {
   double min_global_score = 0.02;
   double min_global_score_ratio = 0.6;
   int xi_neighbours = 2;  // the candidate's session neighbours (each side) for N_n
+  // ... and up to this many other sessions' keyframes within xi_view_radius_m and
+  // xi_view_angle_deg of the candidate: where earlier sessions mapped the same view, a query
+  // that repeats it closely (a route driven again, a recording streamed again) matches the
+  // candidate far better than the candidate's own neighbours a keyframe step away, which
+  // read as a spike (xi >> 1) and rejected every loop of a map's later visits. 0: session
+  // neighbours only.
+  int xi_view_neighbours = 2;
+  double xi_view_radius_m = 0.1;
+  double xi_view_angle_deg = 10;
   // Noise floor added to every edge's covariance in the graph (metres, radians): tracking and
   // loop solves report the precision of one PnP, not the model errors around it (depth bias,
   // rolling shutter, calibration), and would make edges of a few millimetres' disagreement

@@ -185,6 +185,20 @@ class SlamBackendTest : public ::testing::Test {
     return snapshot;
   }
 
+  // Makes a session of a new map `name` the fixture's session.
+  void StartNewMap(const std::string& name) {
+    ASSERT_TRUE(writer_
+                    ->RunSync([&](MapStore& s) -> Status {
+                      SEMMAP_ASSIGN_OR_RETURN(MapInfo map, s.GetOrCreateMap(name));
+                      SessionInfo info = session_;
+                      info.map_id = map.id;
+                      info.name = "first";
+                      SEMMAP_ASSIGN_OR_RETURN(session_, s.CreateSession(info));
+                      return OkStatus();
+                    })
+                    .ok());
+  }
+
   // Makes `name` the fixture's session (a new one of the same map and camera).
   void StartNewSession(const std::string& name) {
     ASSERT_TRUE(writer_
@@ -338,6 +352,53 @@ TEST_F(SlamBackendTest, SessionAfterRestartJoinsTheStoredMap) {
   }
   std::printf("second session joined the stored map: max position error %.4f m\n", worst);
   EXPECT_LT(worst, 0.02);
+}
+
+// A route driven again: the third session repeats the keyframes of the second, which repeated
+// the first's. Its candidates match it far better than their own session's neighbours a
+// keyframe step away (xi >> 1), but the earlier sessions' keyframes at the same view match it
+// as well: counted as neighbours (xi_view_neighbours), they keep the loops from being read as
+// spikes. Without them the third session has loops rejected by xi.
+TEST_F(SlamBackendTest, AViewRepeatedBySeveralSessionsIsNotASpike) {
+  const std::shared_ptr<const BowVocabulary> words = Words();
+  ASSERT_NE(words, nullptr);
+  const std::vector<Keyframe> lap = RenderKeyframes(kLapFrames + 1);
+  const std::vector<Keyframe> again(lap.begin() + 10, lap.begin() + 20);
+  std::map<bool, SlamBackendStats> before_third, after_third;
+  for (const bool view_neighbours : {true, false}) {
+    if (!view_neighbours) StartNewMap("route-without");
+    SlamBackendOptions options;
+    options.xi_view_neighbours = view_neighbours ? 2 : 0;
+    std::unique_ptr<SlamBackend> backend = Start(options, words);
+    for (int pass = 0; pass < 3; ++pass) {
+      if (pass > 0) {
+        StartNewSession("pass" + std::to_string(pass));
+        backend->RegisterSession(
+            session_.id, synth::DefaultSyntheticCamera(), [](const Eigen::Isometry3d&) {},
+            [](std::shared_ptr<const LocalMapUpdate>) {});
+      }
+      if (pass == 2) before_third[view_neighbours] = backend->stats();
+      Stream(*backend, pass == 0 ? lap : again, Eigen::Isometry3d::Identity(), /*drift=*/false);
+      ASSERT_TRUE(backend->Drain().ok());
+    }
+    after_third[view_neighbours] = backend->stats();
+  }
+  const auto third = [&](bool view, auto field) {
+    return after_third[view].*field - before_third[view].*field;
+  };
+  const uint64_t accepted_with = third(true, &SlamBackendStats::loops_accepted);
+  const uint64_t xi_with = third(true, &SlamBackendStats::rejected_xi);
+  const uint64_t accepted_without = third(false, &SlamBackendStats::loops_accepted);
+  const uint64_t xi_without = third(false, &SlamBackendStats::rejected_xi);
+  std::printf(
+      "third pass over a route: with view neighbours %llu loops accepted, %llu rejected by xi; "
+      "without %llu, %llu\n",
+      static_cast<unsigned long long>(accepted_with), static_cast<unsigned long long>(xi_with),
+      static_cast<unsigned long long>(accepted_without),
+      static_cast<unsigned long long>(xi_without));
+  EXPECT_GT(xi_without, 0u);  // the case the view neighbours are for
+  EXPECT_LT(xi_with, xi_without);
+  EXPECT_GE(accepted_with, accepted_without);
 }
 
 // The map points of a finished session are stored when it drains; a restarted server restores
