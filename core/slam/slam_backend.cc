@@ -603,11 +603,12 @@ std::optional<LoopClosureInfo> SlamBackend::CloseLoop(int query) {
       if (!skip(n)) wanted.push_back(n);
     }
     // The same view as other sessions mapped it (SlamBackendOptions::xi_view_neighbours).
+    const int candidate_node = candidate;  // structured bindings are not captured before C++20
     const std::vector<int> same_view =
         graph_.Near(c.T_world_keyframe, options_.xi_view_radius_m,
                     options_.xi_view_angle_deg * kPi / 180.0, [&](int i) {
                       return skip(i) || graph_.node(i).session_id == c.session_id ||
-                             !graph_.SameComponent(i, candidate);
+                             !graph_.SameComponent(i, candidate_node);
                     });
     for (size_t i = 0; i < same_view.size() && static_cast<int>(i) < options_.xi_view_neighbours;
          ++i) {

@@ -375,7 +375,7 @@ TEST_F(SlamBackendTest, AViewRepeatedBySeveralSessionsIsNotASpike) {
         StartNewSession("pass" + std::to_string(pass));
         backend->RegisterSession(
             session_.id, synth::DefaultSyntheticCamera(), [](const Eigen::Isometry3d&) {},
-            [](std::shared_ptr<const LocalMapUpdate>) {});
+            [](const std::shared_ptr<const LocalMapUpdate>& /*update*/) {});
       }
       if (pass == 2) before_third[view_neighbours] = backend->stats();
       Stream(*backend, pass == 0 ? lap : again, Eigen::Isometry3d::Identity(), /*drift=*/false);
