@@ -839,11 +839,12 @@ void SlamBackend::PublishTrackingMap(int index, int64_t session_id, bool refresh
     }
   }
   if (update->ids.empty()) return;
-  for (int k : keyframes) {
-    const GraphKeyframe& node = graph_.node(k);
-    if (options_.follow_revisits && !node.culled && graph_.SameComponent(k, index) &&
-        MappedFor(session_id, k)) {
-      update->keyframe_poses_world.push_back(node.T_world_keyframe);
+  if (options_.follow_revisits) {  // the revisit keyframe rule's mapped views
+    for (int k : keyframes) {
+      const GraphKeyframe& node = graph_.node(k);
+      if (!node.culled && graph_.SameComponent(k, index) && MappedFor(session_id, k)) {
+        update->keyframe_poses_world.push_back(node.T_world_keyframe);
+      }
     }
   }
   // Called under the lock, as corrections are: UnregisterSession waits for it to return.

@@ -58,9 +58,8 @@ struct SlamBackendOptions {
   PointFusionOptions point_fusion;
   // The points sent back to a session's tracker after each local BA (and, with follow_revisits,
   // after each accepted loop and as a refresh as a revisiting camera passes mapped keyframes):
-  // those
-  // observed by the centre keyframe's most covisible keyframes and by the keyframes near its
-  // pose (a revisited place), at most tracking_map_max_points. 0 keyframes: nothing is sent.
+  // those observed by the centre keyframe's most covisible keyframes and by the keyframes near
+  // its pose (a revisited place), at most tracking_map_max_points. 0 keyframes: nothing is sent.
   int tracking_map_covisible_keyframes = 15;
   int tracking_map_near_keyframes = 10;
   double tracking_map_near_radius_m = 1.0;
