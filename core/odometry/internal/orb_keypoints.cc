@@ -68,19 +68,27 @@ std::vector<int> OrbLevelBudgets(int total, int levels, double scale_factor) {
 }
 
 float HarrisResponse(const cv::Mat& image, cv::Point p) {
+  // The 3 x 3 Sobel gradients of the block's pixels, row by row from row pointers: the same
+  // integer sums as evaluating each pixel through Mat::at, without its address arithmetic.
   const int r = kHarrisBlock / 2;
-  const auto at = [&](int x, int y) { return static_cast<int>(image.at<uint8_t>(y, x)); };
   long long a = 0, b = 0, c = 0;
   for (int y = p.y - r; y <= p.y + r; ++y) {
+    const uint8_t* above = image.ptr<uint8_t>(y - 1);
+    const uint8_t* row = image.ptr<uint8_t>(y);
+    const uint8_t* below = image.ptr<uint8_t>(y + 1);
+    int sum_a = 0, sum_b = 0, sum_c = 0;  // at most 7 * 1020^2 each: fits an int
     for (int x = p.x - r; x <= p.x + r; ++x) {
-      const int ix = (at(x + 1, y - 1) - at(x - 1, y - 1)) + 2 * (at(x + 1, y) - at(x - 1, y)) +
-                     (at(x + 1, y + 1) - at(x - 1, y + 1));
-      const int iy = (at(x - 1, y + 1) - at(x - 1, y - 1)) + 2 * (at(x, y + 1) - at(x, y - 1)) +
-                     (at(x + 1, y + 1) - at(x + 1, y - 1));
-      a += static_cast<long long>(ix) * ix;
-      b += static_cast<long long>(iy) * iy;
-      c += static_cast<long long>(ix) * iy;
+      const int ix = (above[x + 1] - above[x - 1]) + 2 * (row[x + 1] - row[x - 1]) +
+                     (below[x + 1] - below[x - 1]);
+      const int iy =
+          (below[x - 1] - above[x - 1]) + 2 * (below[x] - above[x]) + (below[x + 1] - above[x + 1]);
+      sum_a += ix * ix;
+      sum_b += iy * iy;
+      sum_c += ix * iy;
     }
+    a += sum_a;
+    b += sum_b;
+    c += sum_c;
   }
   // Gradients normalised to [-1, 1] per pixel and block (cv::ORB's scale), so responses of
   // different levels compare.
@@ -91,13 +99,13 @@ float HarrisResponse(const cv::Mat& image, cv::Point p) {
   return static_cast<float>((da * db - dc * dc - kHarrisK * (da + db) * (da + db)) * s4);
 }
 
-float IntensityCentroidAngle(const cv::Mat& image, cv::Point p, int radius) {
-  // Row v of the disc spans |u| <= half[v]; rows v and -v are summed together. Rows up to the
-  // 45-degree line are the rounded circle; the rows beyond it mirror those columns, so the disc
-  // is the same turned by 90 degrees (rounding every row alone is not, and its centroid then
-  // leans towards the axes: angles off by ~2 degrees on average from those the descriptors and
-  // the place-recognition vocabulary were made with).
-  const auto r = static_cast<size_t>(radius);
+std::vector<int> DiscHalfWidths(int radius) {
+  // Row v of the disc spans |u| <= half[v]. Rows up to the 45-degree line are the rounded
+  // circle; the rows beyond it mirror those columns, so the disc is the same turned by 90
+  // degrees (rounding every row alone is not, and its centroid then leans towards the axes:
+  // angles off by ~2 degrees on average from those the descriptors and the place-recognition
+  // vocabulary were made with).
+  const auto r = static_cast<size_t>(std::max(radius, 0));
   std::vector<int> half(r + 1, 0);
   const int diagonal = static_cast<int>(std::floor(radius * std::numbers::sqrt2 / 2 + 1));
   for (int v = 0; v <= std::min(diagonal, radius); ++v) {
@@ -109,6 +117,13 @@ float IntensityCentroidAngle(const cv::Mat& image, cv::Point p, int radius) {
     while (u + 1 <= diagonal && half[static_cast<size_t>(u) + 1] >= v) ++u;
     half[static_cast<size_t>(v)] = u;
   }
+  return half;
+}
+
+float IntensityCentroidAngle(const cv::Mat& image, cv::Point p,
+                             const std::vector<int>& half_widths) {
+  // Rows v and -v are summed together.
+  const int radius = static_cast<int>(half_widths.size()) - 1;
   long long m10 = 0, m01 = 0;
   const uint8_t* centre = image.ptr<uint8_t>(p.y) + p.x;
   for (int u = -radius; u <= radius; ++u) m10 += static_cast<long long>(u) * centre[u];
@@ -116,12 +131,14 @@ float IntensityCentroidAngle(const cv::Mat& image, cv::Point p, int radius) {
   for (int v = 1; v <= radius; ++v) {
     const uint8_t* below = centre + static_cast<ptrdiff_t>(v * step);
     const uint8_t* above = centre - static_cast<ptrdiff_t>(v * step);
-    long long difference = 0;
-    for (int u = -half[static_cast<size_t>(v)]; u <= half[static_cast<size_t>(v)]; ++u) {
-      m10 += static_cast<long long>(u) * (below[u] + above[u]);
+    const int half = half_widths[static_cast<size_t>(v)];
+    int moment = 0, difference = 0;  // at most 31 * 15 * 510: fits an int
+    for (int u = -half; u <= half; ++u) {
+      moment += u * (below[u] + above[u]);
       difference += below[u] - above[u];
     }
-    m01 += v * difference;
+    m10 += moment;
+    m01 += static_cast<long long>(v) * difference;
   }
   double degrees =
       std::atan2(static_cast<double>(m01), static_cast<double>(m10)) * 180.0 / std::numbers::pi;
@@ -129,14 +146,20 @@ float IntensityCentroidAngle(const cv::Mat& image, cv::Point p, int radius) {
   return static_cast<float>(degrees >= 360.0 ? 0.0 : degrees);
 }
 
+float IntensityCentroidAngle(const cv::Mat& image, cv::Point p, int radius) {
+  return IntensityCentroidAngle(image, p, DiscHalfWidths(radius));
+}
+
 void OrientOrbKeypoints(const OrbPyramid& pyramid, std::vector<cv::KeyPoint>* keypoints) {
+  // Once, not per keypoint: its square roots were a third of orientation's time.
+  static const std::vector<int> kHalfWidths = DiscHalfWidths(kOrbPatchSize / 2);
   for (cv::KeyPoint& k : *keypoints) {
     const size_t level = static_cast<size_t>(k.octave);
     if (level >= pyramid.levels.size()) continue;
     const double scale = pyramid.scales[level];
     const cv::Point p(static_cast<int>(std::lround(k.pt.x / scale)),
                       static_cast<int>(std::lround(k.pt.y / scale)));
-    k.angle = IntensityCentroidAngle(pyramid.levels[level], p, kOrbPatchSize / 2);
+    k.angle = IntensityCentroidAngle(pyramid.levels[level], p, kHalfWidths);
   }
 }
 

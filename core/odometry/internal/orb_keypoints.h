@@ -55,6 +55,10 @@ float HarrisResponse(const cv::Mat& image, cv::Point p);
 // Orientation in degrees [0, 360) of the intensity centroid of the disc of `radius` around
 // `p` (Rublee et al.'s ORB), `p` at least `radius` pixels inside `image`.
 float IntensityCentroidAngle(const cv::Mat& image, cv::Point p, int radius);
+// The same with the disc given as DiscHalfWidths(radius): row v spans columns -w[v]..w[v].
+float IntensityCentroidAngle(const cv::Mat& image, cv::Point p,
+                             const std::vector<int>& half_widths);
+std::vector<int> DiscHalfWidths(int radius);
 
 // Sets each keypoint's angle (cv::ORB's orientation) from its level of `pyramid`; keypoints of
 // DetectOrbKeypoints on that pyramid.
