@@ -263,8 +263,8 @@ int main(int argc, char** argv) {
                "bundle-adjust each RGBD keyframe with its covisible keyframes and their map "
                "points, and track against the refined points (default on)");
   args.AddFlag("final-ba", "on|off",
-               "when an RGBD session ends, bundle-adjust every keyframe and map point of its map "
-               "(needs --local-ba on; default on)");
+               "when an RGBD session ends, bundle-adjust its keyframes and the map points they "
+               "see, other sessions' keyframes held fixed (needs --local-ba on; default on)");
   args.AddFlag("point-fusion", "off|on|all",
                "search the map points of the keyframes around each new RGBD keyframe in it: "
                "keypoints join a neighbour's point, a fresh duplicate (seen by one keyframe) "

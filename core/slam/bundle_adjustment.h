@@ -6,7 +6,7 @@
 // tracker follows and the map BA refines agree on what a good fit is. Robust first (Huber),
 // then outlier observations are removed by a chi-square gate and the rest solved without the
 // robust loss (as ORB-SLAM2's LocalBundleAdjustment). Used for the local window after each
-// keyframe and for the optional global BA at the end of a session; which keyframes are free
+// keyframe and for the optional final BA at the end of a session; which keyframes are free
 // and which are fixed is the caller's choice. Relative-pose constraints between keyframes (loop
 // edges of the pose graph) can be added: a loop the pose graph closed stays closed while the
 // points of both sides, which no observation ties together, are refined.

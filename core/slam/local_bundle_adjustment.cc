@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 
 namespace semmap {
 
@@ -116,22 +117,46 @@ StatusOr<LocalBundleAdjustmentReport> RunLocalBundleAdjustment(
   return report;
 }
 
-StatusOr<LocalBundleAdjustmentReport> RunGlobalBundleAdjustment(
-    KeyframeGraph& graph, MapPoints& points, const LocalBundleAdjustmentOptions& options,
-    double max_solve_seconds) {
+StatusOr<LocalBundleAdjustmentReport> RunSessionBundleAdjustment(
+    const std::set<int64_t>& session_ids, KeyframeGraph& graph, MapPoints& points,
+    const LocalBundleAdjustmentOptions& options, double max_solve_seconds) {
   BundleAdjustmentWindow window;
+  std::vector<bool> is_free(static_cast<size_t>(graph.size()), false);
   for (int k = 0; k < graph.size(); ++k) {
-    if (points.PointsOf(k).empty()) continue;
-    // The oldest keyframe of each connected component keeps that component's frame.
-    const bool oldest = std::none_of(window.free_keyframes.begin(), window.free_keyframes.end(),
-                                     [&](int f) { return graph.SameComponent(f, k); }) &&
-                        std::none_of(window.fixed_keyframes.begin(), window.fixed_keyframes.end(),
-                                     [&](int f) { return graph.SameComponent(f, k); });
-    (oldest ? window.fixed_keyframes : window.free_keyframes).push_back(k);
+    if (session_ids.count(graph.node(k).session_id) == 0 || points.PointsOf(k).empty()) continue;
+    window.free_keyframes.push_back(k);
+    is_free[static_cast<size_t>(k)] = true;
     for (int64_t id : points.PointsOf(k)) window.points.push_back(id);
   }
   std::sort(window.points.begin(), window.points.end());
   window.points.erase(std::unique(window.points.begin(), window.points.end()), window.points.end());
+  std::set<int> fixed;
+  for (int64_t id : window.points) {
+    for (const MapPointObservation& o : points.Find(id)->observations) {
+      if (!is_free[static_cast<size_t>(o.keyframe)]) fixed.insert(o.keyframe);
+    }
+  }
+  // One keyframe per component already held; a component of the sessions' keyframes that no
+  // other keyframe holds keeps its frame through its oldest keyframe (graph order is age).
+  std::vector<int> holding;
+  const auto held = [&](int k) {
+    return std::any_of(holding.begin(), holding.end(),
+                       [&](int h) { return graph.SameComponent(h, k); });
+  };
+  for (int f : fixed) {
+    if (!held(f)) holding.push_back(f);
+  }
+  std::vector<int> free;
+  for (int k : window.free_keyframes) {
+    if (held(k)) {
+      free.push_back(k);
+    } else {
+      holding.push_back(k);
+      fixed.insert(k);
+    }
+  }
+  window.free_keyframes = std::move(free);
+  window.fixed_keyframes.assign(fixed.begin(), fixed.end());
   BundleAdjustmentOptions solver = options.solver;
   solver.max_solve_seconds = max_solve_seconds;
   return AdjustWindow(window, graph, points, options, solver);

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <set>
 #include <utility>
 #include <vector>
 
@@ -33,8 +34,9 @@ struct LocalBundleAdjustmentOptions {
   // Loop edges between keyframes of a window enter its BA as relative-pose constraints (with the
   // pose graph's information), so BA keeps what loop closure corrected.
   bool loop_constraints = true;
-  // A global BA over every keyframe and point when a session ends (its Drain), each of its two
-  // solves bounded by final_ba_max_solve_seconds (0: unbounded). On by default: ATE on ICL kt2
+  // A BA over the ending session's keyframes and points when it ends (its Drain; the whole map
+  // when it has one session: RunSessionBundleAdjustment), each of its two solves bounded by
+  // final_ba_max_solve_seconds (0: unbounded). On by default: ATE on ICL kt2
   // 23 -> 12-13 mm, teddy 4.1 -> 3.2-3.8 mm, 7-Scenes redkitchen 45.6-47.0 -> 45.8-48.7 mm
   // (its ground truth's floor); under 0.7 s for ~90 keyframes.
   bool final_ba = true;
@@ -68,11 +70,15 @@ StatusOr<LocalBundleAdjustmentReport> RunLocalBundleAdjustment(
     int keyframe, KeyframeGraph& graph, MapPoints& points,
     const LocalBundleAdjustmentOptions& options);
 
-// Global BA (a session's end, --final-ba): every keyframe with map points and every point,
-// the oldest keyframe of each graph component fixed; each solve bounded by max_solve_seconds
-// (0: unbounded). No culling.
-StatusOr<LocalBundleAdjustmentReport> RunGlobalBundleAdjustment(
-    KeyframeGraph& graph, MapPoints& points, const LocalBundleAdjustmentOptions& options,
-    double max_solve_seconds);
+// Bundle adjustment at a session's end (--final-ba): every keyframe of `session_ids` that has
+// map points is free, with every point they observe; the other keyframes observing those
+// points are fixed; a component of the sessions' keyframes that no fixed keyframe holds keeps
+// its frame through its oldest keyframe. For a map with one session this is a global BA. For a
+// map revisited every day its cost follows the visit, not the map, and the keyframes earlier
+// visits left stay where their own final BA put them (so do the layers built from them). Each
+// solve bounded by max_solve_seconds (0: unbounded). No culling.
+StatusOr<LocalBundleAdjustmentReport> RunSessionBundleAdjustment(
+    const std::set<int64_t>& session_ids, KeyframeGraph& graph, MapPoints& points,
+    const LocalBundleAdjustmentOptions& options, double max_solve_seconds);
 
 }  // namespace semmap

@@ -509,7 +509,7 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
     const GraphKeyframe& added = graph_.node(index);
     map_points_.AddKeyframe(added.session_id, index, added.index_in_session, *added.features,
                             added.T_world_keyframe, event.point_ids);
-    keyframes_since_final_ba_ = true;
+    sessions_since_final_ba_.insert(added.session_id);
     map_points_changed_ = true;
     FusePoints(index);
     LocalBundleAdjust(index);
@@ -1008,10 +1008,12 @@ void SlamBackend::SaveMapPoints() {
 }
 
 void SlamBackend::FinalBundleAdjust() {
-  keyframes_since_final_ba_ = false;
+  const std::set<int64_t> sessions = std::move(sessions_since_final_ba_);
+  sessions_since_final_ba_.clear();
   const Clock::time_point t0 = Clock::now();
-  StatusOr<LocalBundleAdjustmentReport> report = RunGlobalBundleAdjustment(
-      graph_, map_points_, options_.local_ba, options_.local_ba.final_ba_max_solve_seconds);
+  StatusOr<LocalBundleAdjustmentReport> report =
+      RunSessionBundleAdjustment(sessions, graph_, map_points_, options_.local_ba,
+                                 options_.local_ba.final_ba_max_solve_seconds);
   if (!report.ok()) {
     LogWarning("{}: final bundle adjustment failed, poses kept: {}", name(),
                report.status().ToString());
@@ -1035,7 +1037,8 @@ void SlamBackend::FinalBundleAdjust() {
 
 Status SlamBackend::OnFlush() {
   if (deferred_loops_ > 0) OptimiseAndCorrect();  // a finished session gets its final poses
-  if (options_.local_ba.enabled && options_.local_ba.final_ba && keyframes_since_final_ba_) {
+  if (options_.local_ba.enabled && options_.local_ba.final_ba &&
+      !sessions_since_final_ba_.empty()) {
     FinalBundleAdjust();
   }
   SaveMapPoints();

@@ -398,7 +398,9 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   static constexpr size_t kLoopsRemembered = 8;
   std::map<int64_t, std::deque<int>> loop_candidates_;
   std::atomic<int> queued_keyframes_{0};  // added, not yet handled
-  bool keyframes_since_final_ba_ = false;
+  // Sessions that added keyframes with points since the last final BA: the next one adjusts
+  // them (RunSessionBundleAdjustment).
+  std::set<int64_t> sessions_since_final_ba_;
   bool map_points_changed_ = false;  // since they were last written to the store
   int deferred_loops_ = 0;           // consistent loops added since the last optimisation
   bool features_unreadable_warned_ = false;

@@ -401,6 +401,44 @@ TEST_F(SlamBackendTest, AViewRepeatedBySeveralSessionsIsNotASpike) {
   EXPECT_GE(accepted_with, accepted_without);
 }
 
+// The final BA at a session's end adjusts that session's keyframes; an earlier session's stay
+// exactly where its own final BA left them (a map revisited every day is not re-adjusted whole
+// at the end of each visit, and its layers are not rebuilt for it).
+TEST_F(SlamBackendTest, FinalBundleAdjustmentLeavesEarlierSessionsWhereTheyWere) {
+  const std::vector<Keyframe> kfs = RenderKeyframes(kLapFrames / 2);
+  SlamBackendOptions options = UnboundedSolves();
+  options.local_ba.final_ba = true;
+  std::unique_ptr<SlamBackend> backend = Start(options);
+  const auto stored_poses = [&](int64_t session_id) {
+    std::vector<Eigen::Isometry3d> poses;
+    auto stored = reader_->ListKeyframes(session_id, false);
+    if (stored.ok()) {
+      for (const KeyframeRecord& kf : *stored) poses.push_back(kf.T_world_camera);
+    }
+    return poses;
+  };
+  Stream(*backend, kfs, std::nullopt, /*drift=*/true, /*point_ids=*/true);
+  ASSERT_TRUE(backend->Drain().ok());
+  const int64_t first = session_.id;
+  const std::vector<Eigen::Isometry3d> first_before = stored_poses(first);
+  ASSERT_EQ(first_before.size(), kfs.size());
+
+  StartNewSession("second");
+  backend->RegisterSession(
+      session_.id, synth::DefaultSyntheticCamera(), [](const Eigen::Isometry3d&) {},
+      [](const std::shared_ptr<const LocalMapUpdate>& /*update*/) {});
+  const std::vector<Eigen::Isometry3d> reported =
+      Stream(*backend, kfs, std::nullopt, /*drift=*/true, /*point_ids=*/true);
+  ASSERT_TRUE(backend->Drain().ok());
+  EXPECT_EQ(backend->stats().final_ba_runs, 2u);
+  const std::vector<Eigen::Isometry3d> first_after = stored_poses(first);
+  ASSERT_EQ(first_after.size(), first_before.size());
+  for (size_t i = 0; i < first_before.size(); ++i) {
+    EXPECT_TRUE(first_after[i].matrix() == first_before[i].matrix()) << "keyframe " << i;
+  }
+  EXPECT_LT(MaxError(kfs, stored_poses(session_.id)), MaxError(kfs, reported) / 4);
+}
+
 // The map points of a finished session are stored when it drains; a restarted server restores
 // them with the keyframes, and once a later session's loop joins it to the map, that session's
 // tracker is sent them (under foreign ids) to track against.
@@ -649,7 +687,7 @@ TEST_F(SlamBackendTest, LocalBundleAdjustmentPullsADriftingPathTowardsTheTruth) 
   EXPECT_LT(after, before / 4);
 }
 
-// The final BA at the session's end (Drain) adjusts every keyframe and point once more.
+// The final BA at the session's end (Drain) adjusts its keyframes and points once more.
 TEST_F(SlamBackendTest, FinalBundleAdjustmentRunsWhenTheSessionDrains) {
   const std::vector<Keyframe> kfs = RenderKeyframes(kLapFrames / 2);
   SlamBackendOptions options = UnboundedSolves();
