@@ -59,8 +59,19 @@ double Linearise(const std::vector<RgbdObservation>& obs, const std::vector<bool
     const double n = r.norm();
     const double w = n <= k ? 1.0 : k / n;
     cost += n <= k ? 0.5 * n * n : k * (n - 0.5 * k);
-    H->noalias() += w * J.transpose() * J;
+    // H is symmetric: its upper triangle only (21 of 36 entries), mirrored once below; a
+    // depth-less observation has a zero third row, left out.
+    for (int a = 0; a < 6; ++a) {
+      for (int b = a; b < 6; ++b) {
+        double sum = J(0, a) * J(0, b) + J(1, a) * J(1, b);
+        if (rows == 3) sum += J(2, a) * J(2, b);
+        (*H)(a, b) += w * sum;
+      }
+    }
     g->noalias() += w * J.transpose() * r;
+  }
+  for (int a = 1; a < 6; ++a) {
+    for (int b = 0; b < a; ++b) (*H)(a, b) = (*H)(b, a);
   }
   return cost;
 }
@@ -96,10 +107,16 @@ RgbdRefinement RefinePoseRgbd(const std::vector<RgbdObservation>& obs, const Cam
     Eigen::Vector3d r;
     Eigen::Matrix<double, 3, 6> J;
     int rows;
+    bool changed = false;
     for (size_t i = 0; i < obs.size(); ++i) {
-      active[i] = Whitened(obs[i], c, T, o.inverse_depth_sigma, o.use_depth, &r, &J, &rows) &&
-                  r.squaredNorm() <= (rows == 3 ? o.chi2_3dof : o.chi2_2dof);
+      const bool inlier =
+          Whitened(obs[i], c, T, o.inverse_depth_sigma, o.use_depth, &r, &J, &rows) &&
+          r.squaredNorm() <= (rows == 3 ? o.chi2_3dof : o.chi2_2dof);
+      changed = changed || inlier != active[i];
+      active[i] = inlier;
     }
+    // The same inliers as the round just solved: another round would solve the same problem.
+    if (!changed) break;
   }
   out.T_current_reference = T;
   out.inlier = active;
