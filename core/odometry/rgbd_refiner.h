@@ -20,7 +20,7 @@ struct RgbdRefinerOptions {
   // Structured-light depth has sigma_z ~ 1.5e-3 z^2, i.e. a constant inverse-depth sigma.
   double inverse_depth_sigma = 3e-3;
   bool use_depth = true;
-  int rounds = 3;            // reclassification rounds
+  int rounds = 3;            // reclassification rounds (fewer once one changes no inlier)
   int iterations = 8;        // Levenberg-Marquardt steps per round
   double chi2_2dof = 5.991;  // 95% inlier gates: reprojection only ...
   double chi2_3dof = 7.815;  // ... and with the depth term
