@@ -32,7 +32,8 @@ struct KeyframePolicyOptions {
   double min_inlier_fraction = 0.4;
   // Visual tracking: motion makes no keyframe when the frame is within min_motion of a
   // keyframe the map holds (KeyframeCandidate::mapped_keyframes) other than the reference.
-  // The back end's half is SlamBackendOptions::follow_revisits (semmapd sets both).
+  // The back end's half is SlamBackendOptions::follow_revisits (IngestOptions::Validate wants
+  // both the same; semmapd sets both).
   bool skip_mapped_views = true;
   Status Validate() const;
 };

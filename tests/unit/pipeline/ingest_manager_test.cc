@@ -250,5 +250,18 @@ TEST_F(IngestManagerTest, MapLimitsAreValidated) {
   EXPECT_TRUE(options.Validate().ok());
 }
 
+TEST_F(IngestManagerTest, TheRevisitRulesTwoHalvesGoTogether) {
+  IngestOptions options;
+  EXPECT_TRUE(options.Validate().ok());  // both on by default
+  options.keyframes.skip_mapped_views = false;
+  const Status half = options.Validate();
+  EXPECT_EQ(half.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(half.message().find("follow_revisits"), std::string::npos) << half.ToString();
+  options.slam.follow_revisits = false;
+  EXPECT_TRUE(options.Validate().ok());
+  options.keyframes.skip_mapped_views = true;
+  EXPECT_FALSE(options.Validate().ok());
+}
+
 }  // namespace
 }  // namespace semmap
