@@ -1008,8 +1008,7 @@ void SlamBackend::SaveMapPoints() {
 }
 
 void SlamBackend::FinalBundleAdjust() {
-  const std::set<int64_t> sessions = std::move(sessions_since_final_ba_);
-  sessions_since_final_ba_.clear();
+  const std::set<int64_t> sessions = std::exchange(sessions_since_final_ba_, {});
   const Clock::time_point t0 = Clock::now();
   StatusOr<LocalBundleAdjustmentReport> report =
       RunSessionBundleAdjustment(sessions, graph_, map_points_, options_.local_ba,

@@ -190,13 +190,11 @@ class SlamBackendTest : public ::testing::Test {
     ASSERT_TRUE(writer_
                     ->RunSync([&](MapStore& s) -> Status {
                       SEMMAP_ASSIGN_OR_RETURN(MapInfo map, s.GetOrCreateMap(name));
-                      SessionInfo info = session_;
-                      info.map_id = map.id;
-                      info.name = "first";
-                      SEMMAP_ASSIGN_OR_RETURN(session_, s.CreateSession(info));
+                      session_.map_id = map.id;
                       return OkStatus();
                     })
                     .ok());
+    StartNewSession("first");
   }
 
   // Makes `name` the fixture's session (a new one of the same map and camera).
