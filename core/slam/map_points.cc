@@ -268,6 +268,7 @@ void MapPoints::ForEach(const std::function<void(const MapPointState&)>& visit) 
 
 void MapPoints::RemoveKeyframe(int keyframe) {
   if (keyframe < 0 || static_cast<size_t>(keyframe) >= points_of_keyframe_.size()) return;
+  awaiting_.erase(keyframe);  // no keyframe will share points with it: never looked at again
   // A copy: RemoveObservation edits the keyframe's list.
   const std::vector<int64_t> seen = points_of_keyframe_[static_cast<size_t>(keyframe)];
   for (int64_t id : seen) RemoveObservation(id, keyframe);
@@ -308,6 +309,47 @@ int MapPoints::Cull(int64_t session_id, int newest_in_session) {
   return culled;
 }
 
+void MapPoints::EndSession(int64_t session_id) {
+  const auto recent = recent_.find(session_id);
+  if (recent == recent_.end()) return;
+  for (int64_t id : recent->second) {
+    const auto it = points_.find(id);
+    if (it == points_.end() || it->second.observations.empty()) continue;
+    // Observations stay in keyframe order and later ones only join newer keyframes: the first
+    // is the creator's.
+    awaiting_[it->second.observations.front().keyframe].points.push_back(id);
+  }
+  recent_.erase(recent);
+}
+
+int MapPoints::JudgeAround(int keyframe) {
+  if (awaiting_.empty()) return 0;
+  std::vector<int> looked_at;
+  for (int64_t id : PointsOf(keyframe)) {
+    for (const MapPointObservation& o : points_.at(id).observations) {
+      if (o.keyframe != keyframe && awaiting_.count(o.keyframe) != 0)
+        looked_at.push_back(o.keyframe);
+    }
+  }
+  std::sort(looked_at.begin(), looked_at.end());
+  looked_at.erase(std::unique(looked_at.begin(), looked_at.end()), looked_at.end());
+  int culled = 0;
+  for (int place : looked_at) {
+    const auto waiting = awaiting_.find(place);
+    if (++waiting->second.looks < options_.cull_age_keyframes) continue;
+    for (int64_t id : waiting->second.points) {
+      const auto it = points_.find(id);
+      if (it == points_.end()) continue;
+      if (static_cast<int>(it->second.observations.size()) < options_.min_observations) {
+        Erase(id);
+        ++culled;
+      }
+    }
+    awaiting_.erase(waiting);
+  }
+  return culled;
+}
+
 void MapPoints::Erase(int64_t id) {
   const auto it = points_.find(id);
   if (it == points_.end()) return;
@@ -340,6 +382,10 @@ size_t MapPoints::HeldBytes() const {
   for (const auto& [session, ids] : recent_) {
     bytes += sizeof(std::pair<const int64_t, std::vector<int64_t>>) + kNodeOverhead +
              ids.capacity() * sizeof(int64_t);
+  }
+  for (const auto& [keyframe, waiting] : awaiting_) {
+    bytes += sizeof(std::pair<const int, AwaitingJudgement>) + kNodeOverhead +
+             waiting.points.capacity() * sizeof(int64_t);
   }
   return bytes;
 }

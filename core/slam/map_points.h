@@ -131,6 +131,17 @@ class MapPoints {
   // Culls the session's points that are old enough and still observed too rarely (options);
   // `newest_in_session`: index_in_session of the session's newest keyframe. Returns how many.
   int Cull(int64_t session_id, int newest_in_session);
+  // The session has ended before judging its youngest points (those of its last keyframes):
+  // they wait for other sessions' keyframes instead. Each later keyframe sharing points with a
+  // waiting point's creating keyframe (JudgeAround) is a look at that place; after
+  // cull_age_keyframes looks its waiting points are judged like recent ones. A place no later
+  // session comes back to keeps them (its next visitor will track against them), while a place
+  // revisited again and again does not keep every visit's unconfirmed points.
+  void EndSession(int64_t session_id);
+  // `keyframe` (just added, its points and fused observations in place) looks at the places it
+  // shares points with; judges the waiting points of those looked at often enough. Returns how
+  // many points were removed.
+  int JudgeAround(int keyframe);
 
   size_t size() const { return points_.size(); }
   size_t num_observations() const { return num_observations_; }
@@ -149,6 +160,12 @@ class MapPoints {
   std::vector<std::vector<int64_t>> points_of_keyframe_;          // by graph node
   // Points that may still be culled, by session (removed once they pass the age test).
   std::map<int64_t, std::vector<int64_t>> recent_;
+  // An ended session's points not yet judged, by the keyframe that created them (EndSession).
+  struct AwaitingJudgement {
+    int looks = 0;
+    std::vector<int64_t> points;
+  };
+  std::map<int, AwaitingJudgement> awaiting_;
   int64_t next_id_ = 0;
   size_t num_observations_ = 0;
 };

@@ -302,6 +302,7 @@ void SlamBackend::UnregisterSession(int64_t session_id) {
   if (it != sessions_.end()) {
     it->second.on_correction = nullptr;
     it->second.on_map_update = nullptr;
+    ended_sessions_.push_back(session_id);
   }
 }
 
@@ -512,6 +513,7 @@ void SlamBackend::HandleKeyframe(KeyframeEvent& event) {
     sessions_since_final_ba_.insert(added.session_id);
     map_points_changed_ = true;
     FusePoints(index);
+    JudgeAwaitingPoints(index);
     LocalBundleAdjust(index);
     CullKeyframes(index);
   }
@@ -732,6 +734,13 @@ bool SlamBackend::OptimiseAndCorrect(bool check_new_loop) {
   ++stats_.optimisations;
   optimise_ms_.Add(MillisecondsSince(t0));
   return true;
+}
+
+void SlamBackend::JudgeAwaitingPoints(int index) {
+  const int culled = map_points_.JudgeAround(index);
+  if (culled == 0) return;
+  std::lock_guard lock(mutex_);
+  stats_.map_points_culled += static_cast<uint64_t>(culled);
 }
 
 void SlamBackend::LocalBundleAdjust(int index) {
@@ -1034,8 +1043,18 @@ void SlamBackend::FinalBundleAdjust() {
   final_ba_ms_.Add(MillisecondsSince(t0));
 }
 
+void SlamBackend::EndSessionPoints() {
+  std::vector<int64_t> ended;
+  {
+    std::lock_guard lock(mutex_);
+    ended = std::exchange(ended_sessions_, {});
+  }
+  for (int64_t session_id : ended) map_points_.EndSession(session_id);
+}
+
 Status SlamBackend::OnFlush() {
   if (deferred_loops_ > 0) OptimiseAndCorrect();  // a finished session gets its final poses
+  EndSessionPoints();
   if (options_.local_ba.enabled && options_.local_ba.final_ba &&
       !sessions_since_final_ba_.empty()) {
     FinalBundleAdjust();

@@ -300,6 +300,12 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   void OnStart() override;
   void Handle(Event& event) override;
   Status OnFlush() override;
+  // Hands the young map points of the sessions unregistered since the last flush over to
+  // later sessions' judgement (MapPoints::EndSession).
+  void EndSessionPoints();
+  // Judges ended sessions' waiting points the new keyframe `index` looks at
+  // (MapPoints::JudgeAround).
+  void JudgeAwaitingPoints(int index);
   void OnStop() override;
   void Restore(const MapSnapshot& snapshot);
   // Graph node and place-database entry of a keyframe (no loop search).
@@ -406,9 +412,12 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   bool features_unreadable_warned_ = false;
 
   PendingWrites writes_;      // the worker's batches, and the errors Drain reports
-  mutable std::mutex mutex_;  // sessions_, stats_
+  mutable std::mutex mutex_;  // sessions_, ended_sessions_, stats_
   // Entries are never erased: graph keyframes point at their session's camera.
   std::map<int64_t, SessionState> sessions_;
+  // Unregistered since the last flush: the flush hands their young map points over
+  // (MapPoints::EndSession).
+  std::vector<int64_t> ended_sessions_;
   SlamBackendStats stats_;
   LatencyStats keyframe_ms_{"backend_keyframe"};
   LatencyStats optimise_ms_{"optimise"};

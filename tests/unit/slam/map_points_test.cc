@@ -161,6 +161,41 @@ TEST(MapPointsTest, CullingRemovesPointsTooFewKeyframesConfirm) {
   EXPECT_EQ(points.num_observations(), 2u);
 }
 
+// A session that ends before its last keyframes' points are judged leaves them to later
+// sessions: kept until enough later keyframes look at that place, then judged as usual.
+TEST(MapPointsTest, AnEndedSessionsYoungPointsAreJudgedByLaterLooksAtTheirPlace) {
+  MapPointsOptions options;
+  options.min_observations = 2;
+  options.cull_age_keyframes = 2;
+  MapPoints points(options);
+  const FrameFeatures f = Features(3);
+  points.AddKeyframe(1, 0, 0, f, At(0), {0, 1, 2});  // session 1's last keyframe
+  const std::vector<int64_t> young = points.PointsOf(0);
+  ASSERT_EQ(young.size(), 3u);
+  points.EndSession(1);
+  EXPECT_EQ(points.Cull(1, 10), 0);  // no longer the session's to judge
+  EXPECT_EQ(points.size(), 3u);
+  // Session 2 somewhere else: shares no point with keyframe 0, so it is no look there.
+  points.AddKeyframe(2, 1, 0, f, At(5), {0, 1, 2});
+  EXPECT_EQ(points.JudgeAround(1), 0);
+  // Session 2 back at keyframe 0's place, matching the first young point: one look.
+  const auto foreign = [&](int64_t id) { return points.TrackerIdFor(2, id); };
+  points.AddKeyframe(2, 2, 1, f, At(0), {foreign(young[0]), -1, -1});
+  EXPECT_EQ(points.JudgeAround(2), 0);  // looked at once: too few to judge
+  EXPECT_EQ(points.size(), 6u);
+  // A second look, which also confirms the second point: the third, seen by its creator only,
+  // goes; the confirmed ones stay.
+  points.AddKeyframe(2, 3, 2, f, At(0), {foreign(young[0]), foreign(young[1]), -1});
+  EXPECT_EQ(points.JudgeAround(3), 1);
+  EXPECT_NE(points.Find(young[0]), nullptr);
+  EXPECT_NE(points.Find(young[1]), nullptr);
+  EXPECT_EQ(points.Find(young[2]), nullptr);
+  // Judged once: later looks remove nothing.
+  points.AddKeyframe(2, 4, 3, f, At(0), {foreign(young[0]), -1, -1});
+  EXPECT_EQ(points.JudgeAround(4), 0);
+  EXPECT_EQ(points.size(), 5u);
+}
+
 TEST(MapPointsTest, PointsMoveWithTheirOldestKeyframe) {
   MapPoints points;
   const FrameFeatures f = Features(2);
