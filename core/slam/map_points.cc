@@ -230,6 +230,11 @@ int64_t MapPoints::Restore(int64_t session_id, const Eigen::Vector3d& position_w
     points_of_keyframe_[static_cast<size_t>(o.keyframe)].push_back(id);
   }
   num_observations_ += observations.size();
+  // Stored unconfirmed (its session ended before judging it): later looks judge it
+  // (EndSession), as they would have had the map stayed in memory.
+  if (static_cast<int>(observations.size()) < options_.min_observations) {
+    awaiting_[observations.front().keyframe].points.push_back(id);
+  }
   point.observations = std::move(observations);
   return id;
 }

@@ -110,7 +110,8 @@ class MapPoints {
   // observed by `observations` (ObservationOf: graph nodes, any order; one per keyframe is
   // kept). It has no
   // tracker id until a session's tracker is given it (TrackerIdFor) and is not culled as a
-  // recent point. Returns its id; -1 (nothing added) without an observation.
+  // recent point; one with fewer than min_observations waits for later looks (EndSession).
+  // Returns its id; -1 (nothing added) without an observation.
   int64_t Restore(int64_t session_id, const Eigen::Vector3d& position_world,
                   std::vector<MapPointObservation> observations);
   // The id session `session_id`'s tracker knows point `id` by: the tracker id it created the

@@ -196,6 +196,27 @@ TEST(MapPointsTest, AnEndedSessionsYoungPointsAreJudgedByLaterLooksAtTheirPlace)
   EXPECT_EQ(points.size(), 5u);
 }
 
+// A map read back from the store (a restarted server, or a map whose idle pipeline was
+// released) has no session to judge its unconfirmed points: they wait for looks like an ended
+// session's.
+TEST(MapPointsTest, RestoredUnconfirmedPointsAreJudgedByLaterLooks) {
+  MapPointsOptions options;
+  options.min_observations = 2;
+  options.cull_age_keyframes = 2;
+  MapPoints points(options);
+  const FrameFeatures f = Features(3);
+  const int64_t confirmed = points.Restore(1, Eigen::Vector3d(0, 0, 2), {{0, 0}, {1, 0}});
+  const int64_t lone = points.Restore(1, Eigen::Vector3d(0.1, 0, 2), {{0, 1}});
+  ASSERT_GE(lone, 0);
+  for (int k = 2; k <= 3; ++k) {
+    points.AddKeyframe(2, k, k - 2, f, At(0), {points.TrackerIdFor(2, confirmed), -1, -1});
+  }
+  EXPECT_EQ(points.JudgeAround(2), 0);
+  EXPECT_EQ(points.JudgeAround(3), 1);
+  EXPECT_EQ(points.Find(lone), nullptr);
+  EXPECT_NE(points.Find(confirmed), nullptr);
+}
+
 TEST(MapPointsTest, PointsMoveWithTheirOldestKeyframe) {
   MapPoints points;
   const FrameFeatures f = Features(2);
