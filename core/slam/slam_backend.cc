@@ -1049,7 +1049,13 @@ void SlamBackend::EndSessionPoints() {
     std::lock_guard lock(mutex_);
     ended = std::exchange(ended_sessions_, {});
   }
-  for (int64_t session_id : ended) map_points_.EndSession(session_id);
+  for (int64_t session_id : ended) {
+    map_points_.EndSession(session_id);
+    // Its events are all handled (Drain follows UnregisterSession): no keyframe of it will
+    // ask for its tracking map or loop candidates again.
+    tracking_map_centre_.erase(session_id);
+    loop_candidates_.erase(session_id);
+  }
 }
 
 Status SlamBackend::OnFlush() {

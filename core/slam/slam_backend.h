@@ -301,7 +301,7 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   void Handle(Event& event) override;
   Status OnFlush() override;
   // Hands the young map points of the sessions unregistered since the last flush over to
-  // later sessions' judgement (MapPoints::EndSession).
+  // later sessions' judgement (MapPoints::EndSession) and forgets their tracking-map state.
   void EndSessionPoints();
   // Judges ended sessions' waiting points the new keyframe `index` looks at
   // (MapPoints::JudgeAround).
