@@ -20,6 +20,14 @@ FrameFeatures Features(int n, std::vector<int> no_depth = {}) {
   return f;
 }
 
+// A point needs a second keyframe's confirmation, judged two keyframes after its creator.
+MapPointsOptions JudgedAfterTwoKeyframes() {
+  MapPointsOptions options;
+  options.min_observations = 2;
+  options.cull_age_keyframes = 2;
+  return options;
+}
+
 Eigen::Isometry3d At(double x) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.translation().x() = x;
@@ -137,10 +145,7 @@ TEST(MapPointsTest, CovisibilityAndTheLocalWindow) {
 }
 
 TEST(MapPointsTest, CullingRemovesPointsTooFewKeyframesConfirm) {
-  MapPointsOptions options;
-  options.min_observations = 2;
-  options.cull_age_keyframes = 2;
-  MapPoints points(options);
+  MapPoints points(JudgedAfterTwoKeyframes());
   const FrameFeatures f = Features(3);
   points.AddKeyframe(1, 0, 0, f, At(0), {0, 1, 2});
   points.AddKeyframe(1, 1, 1, f, At(0), {0, -1, -1});
@@ -164,10 +169,7 @@ TEST(MapPointsTest, CullingRemovesPointsTooFewKeyframesConfirm) {
 // A session that ends before its last keyframes' points are judged leaves them to later
 // sessions: kept until enough later keyframes look at that place, then judged as usual.
 TEST(MapPointsTest, AnEndedSessionsYoungPointsAreJudgedByLaterLooksAtTheirPlace) {
-  MapPointsOptions options;
-  options.min_observations = 2;
-  options.cull_age_keyframes = 2;
-  MapPoints points(options);
+  MapPoints points(JudgedAfterTwoKeyframes());
   const FrameFeatures f = Features(3);
   points.AddKeyframe(1, 0, 0, f, At(0), {0, 1, 2});  // session 1's last keyframe
   const std::vector<int64_t> young = points.PointsOf(0);
@@ -200,10 +202,7 @@ TEST(MapPointsTest, AnEndedSessionsYoungPointsAreJudgedByLaterLooksAtTheirPlace)
 // released) has no session to judge its unconfirmed points: they wait for looks like an ended
 // session's.
 TEST(MapPointsTest, RestoredUnconfirmedPointsAreJudgedByLaterLooks) {
-  MapPointsOptions options;
-  options.min_observations = 2;
-  options.cull_age_keyframes = 2;
-  MapPoints points(options);
+  MapPoints points(JudgedAfterTwoKeyframes());
   const FrameFeatures f = Features(3);
   const int64_t confirmed = points.Restore(1, Eigen::Vector3d(0, 0, 2), {{0, 0}, {1, 0}});
   const int64_t lone = points.Restore(1, Eigen::Vector3d(0.1, 0, 2), {{0, 1}});
