@@ -290,6 +290,8 @@ void SlamBackend::RegisterSession(int64_t session_id, const CameraCalibration& c
                                   CorrectionCallback on_correction,
                                   MapUpdateCallback on_map_update) {
   std::lock_guard lock(mutex_);
+  // Back before a flush handed its points over (a resumed session): it has not ended.
+  std::erase(ended_sessions_, session_id);
   SessionState& state = sessions_[session_id];
   state.camera = camera;
   state.on_correction = std::move(on_correction);
