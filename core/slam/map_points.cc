@@ -230,12 +230,10 @@ int64_t MapPoints::Restore(int64_t session_id, const Eigen::Vector3d& position_w
     points_of_keyframe_[static_cast<size_t>(o.keyframe)].push_back(id);
   }
   num_observations_ += observations.size();
-  // Stored unconfirmed (its session ended before judging it): later looks judge it
-  // (EndSession), as they would have had the map stayed in memory.
-  if (static_cast<int>(observations.size()) < options_.min_observations) {
-    awaiting_[observations.front().keyframe].points.push_back(id);
-  }
   point.observations = std::move(observations);
+  // Stored unconfirmed (its session ended before judging it): later looks judge it, as they
+  // would have had the map stayed in memory.
+  if (Unconfirmed(point)) AwaitJudgement(point);
   return id;
 }
 
@@ -305,7 +303,7 @@ int MapPoints::Cull(int64_t session_id, int newest_in_session) {
       still_recent.push_back(id);
       continue;
     }
-    if (static_cast<int>(it->second.observations.size()) < options_.min_observations) {
+    if (Unconfirmed(it->second)) {
       Erase(id);
       ++culled;
     }
@@ -319,12 +317,16 @@ void MapPoints::EndSession(int64_t session_id) {
   if (recent == recent_.end()) return;
   for (int64_t id : recent->second) {
     const auto it = points_.find(id);
-    if (it == points_.end() || it->second.observations.empty()) continue;
-    // Observations stay in keyframe order and later ones only join newer keyframes: the first
-    // is the creator's.
-    awaiting_[it->second.observations.front().keyframe].points.push_back(id);
+    if (it != points_.end()) AwaitJudgement(it->second);
   }
   recent_.erase(recent);
+}
+
+void MapPoints::AwaitJudgement(const MapPointState& point) {
+  if (point.observations.empty()) return;
+  // Its oldest observation: the creator's (observations stay in keyframe order), unless BA
+  // removed that one; either way a keyframe at the point's place.
+  awaiting_[point.observations.front().keyframe].points.push_back(point.id);
 }
 
 int MapPoints::JudgeAround(int keyframe) {
@@ -344,8 +346,7 @@ int MapPoints::JudgeAround(int keyframe) {
     if (++waiting->second.looks < options_.cull_age_keyframes) continue;
     for (int64_t id : waiting->second.points) {
       const auto it = points_.find(id);
-      if (it == points_.end()) continue;
-      if (static_cast<int>(it->second.observations.size()) < options_.min_observations) {
+      if (it != points_.end() && Unconfirmed(it->second)) {
         Erase(id);
         ++culled;
       }

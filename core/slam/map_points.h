@@ -151,6 +151,12 @@ class MapPoints {
 
  private:
   void Erase(int64_t id);
+  // Seen by fewer keyframes than min_observations: what culling removes once judged.
+  bool Unconfirmed(const MapPointState& point) const {
+    return static_cast<int>(point.observations.size()) < options_.min_observations;
+  }
+  // Queues the point under the keyframe at its place until enough looks there (EndSession).
+  void AwaitJudgement(const MapPointState& point);
   // The point session `session_id`'s tracker id names (its own, an alias, a foreign name), if
   // it is in the map.
   std::optional<int64_t> Resolve(int64_t session_id, int64_t tracker_id) const;

@@ -1045,7 +1045,7 @@ void SlamBackend::FinalBundleAdjust() {
   final_ba_ms_.Add(MillisecondsSince(t0));
 }
 
-void SlamBackend::EndSessionPoints() {
+void SlamBackend::EndSessions() {
   std::vector<int64_t> ended;
   {
     std::lock_guard lock(mutex_);
@@ -1062,7 +1062,7 @@ void SlamBackend::EndSessionPoints() {
 
 Status SlamBackend::OnFlush() {
   if (deferred_loops_ > 0) OptimiseAndCorrect();  // a finished session gets its final poses
-  EndSessionPoints();
+  EndSessions();
   if (options_.local_ba.enabled && options_.local_ba.final_ba &&
       !sessions_since_final_ba_.empty()) {
     FinalBundleAdjust();

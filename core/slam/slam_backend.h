@@ -300,9 +300,10 @@ class SlamBackend final : public PipelineStage<std::variant<KeyframeEvent, Frame
   void OnStart() override;
   void Handle(Event& event) override;
   Status OnFlush() override;
-  // Hands the young map points of the sessions unregistered since the last flush over to
-  // later sessions' judgement (MapPoints::EndSession) and forgets their tracking-map state.
-  void EndSessionPoints();
+  // Ends the sessions unregistered since the last flush in the back end's own state: their
+  // young map points go to later sessions' judgement (MapPoints::EndSession), their
+  // tracking-map centre and loop candidates are forgotten.
+  void EndSessions();
   // Judges ended sessions' waiting points the new keyframe `index` looks at
   // (MapPoints::JudgeAround).
   void JudgeAwaitingPoints(int index);
